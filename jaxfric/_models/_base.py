@@ -1,0 +1,59 @@
+"""What every friction model provides."""
+
+import abc
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+from .._inputs import Motion
+
+
+class SimResult(eqx.Module):
+    """Full output of `jaxfric.simulate`.
+
+    - `force`: total friction force, N, one per sample.
+    - `parts`: the named contributions (N) that add up to `force`, e.g. ``"hysteresis"``,
+      ``"lag"``, ``"viscous"`` for `TwoState`; plus model diagnostics (e.g. ``"depth"``,
+      the number of memory-stack entries in use).
+    - `overflow`: how many memory entries were dropped because the stack was full (an int;
+      0 for models without a stack). Nonzero means the result may deviate from the model's
+      exact memory behaviour: raise ``stack_size``.
+    """
+
+    force: Array
+    parts: dict[str, Array]
+    overflow: Array
+
+
+class AbstractFrictionModel(eqx.Module):
+    """A friction model: a pytree of parameters plus ``init_state``/``step``.
+
+    ``step`` is the per-sample update used in closed loops (a mass plus a controller in the
+    user's own ``lax.scan``); ``_simulate`` is the whole-trajectory path that
+    `jaxfric.simulate` uses. Models whose smooth parts can be vectorised override
+    ``_simulate``; the default scans ``step``. Both give the same numbers (tested).
+    """
+
+    @abc.abstractmethod
+    def init_state(self, x0: ArrayLike = 0.0) -> Any:
+        """The zero state at initial position `x0` (m): no force, no memory."""
+
+    @abc.abstractmethod
+    def step(self, state: Any, x: ArrayLike, v: ArrayLike, dt: ArrayLike) -> tuple[Any, Array]:
+        """Advance one sample to position `x` (m) with velocity `v` (m/s) after `dt` (s).
+
+        Returns ``(new_state, force)`` with force in N. The direction of motion is
+        ``sign(v)`` (docs/algorithm.md section 1): give a `v` consistent with the motion.
+        """
+
+    def _simulate(self, motion: Motion) -> SimResult:
+        state = self.init_state(motion.x[0])
+
+        def body(state, inp):
+            return self.step(state, *inp)
+
+        _, force = jax.lax.scan(body, state, (motion.x, motion.v, motion.dt))
+        return SimResult(force=force, parts={}, overflow=jnp.zeros((), jnp.int32))

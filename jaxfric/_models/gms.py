@@ -1,0 +1,135 @@
+"""Generalized Maxwell-slip model with N elements (paper Sec. 2; docs/algorithm.md sec. 5)."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float
+
+from .._inputs import Motion
+from .._numerics import as_param, safe_div
+from .._shapes import AbstractShape
+from .._stribeck import Stribeck
+from ._base import AbstractFrictionModel, SimResult
+
+
+class GMSState(eqx.Module):
+    """Element forces `F` (N), slip flags, last direction and previous position (m)."""
+
+    F: Float[Array, " N"]
+    slipping: Bool[Array, " N"]
+    last_d: Array
+    x_prev: Array
+
+
+class GMS(AbstractFrictionModel):
+    """N-element GMS: ``F = sum_i F_i + sigma2*v``.
+
+    **Arguments:**
+
+    - `stribeck`: the `Stribeck` curve.
+    - `sigma2`: viscous coefficient, N s/m.
+    - `C`: attraction parameter, N/s.
+    - `nu`: element weights (dimensionless, ``sum(nu) = 1`` normally), shape ``(N,)``.
+    - `k`: element stiffnesses, N/m, shape ``(N,)``. Element i slips after ``nu_i*|s|/k_i``.
+    """
+
+    stribeck: Stribeck
+    sigma2: Array = eqx.field(converter=as_param)
+    C: Array = eqx.field(converter=as_param)
+    nu: Array = eqx.field(converter=as_param)
+    k: Array = eqx.field(converter=as_param)
+
+    def __check_init__(self):
+        if self.nu.ndim != 1 or self.nu.shape != self.k.shape:
+            raise ValueError(
+                f"nu and k must be 1-D of equal length, got {self.nu.shape} and {self.k.shape}"
+            )
+
+    @classmethod
+    def from_shape(
+        cls,
+        shape: AbstractShape,
+        stribeck: Stribeck,
+        sigma2: ArrayLike,
+        C: ArrayLike,
+        n: int,
+        breakpoints: ArrayLike | None = None,
+    ) -> "GMS":
+        """A GMS whose piecewise-linear virgin curve interpolates ``shape``'s ``Pi``.
+
+        Breakpoints ``l_1 = l1 > l_2 > ... > l_n > 0`` (m/N) default to a geometric spacing
+        from ``l1`` down to ``1e-3*l1`` (dense where ``Pi`` bends most, near 0). Then
+        ``Pi_0(xi) = sum_i k_i*min(xi, l_i)`` equals ``Pi`` at every breakpoint, and
+        ``nu_i = k_i*l_i`` (so ``sum nu_i = Pi(l1) = 1``). Differentiable in the shape.
+        """
+        if n < 1:
+            raise ValueError(f"n must be >= 1, got {n}")
+        if breakpoints is None:
+            ratio = jnp.asarray(np.geomspace(1.0, 1e-3, n))
+            breakpoints = shape.l1 * ratio
+        lb = jnp.asarray(breakpoints)
+        if lb.shape != (n,):
+            raise ValueError(f"breakpoints must have shape ({n},), got {lb.shape}")
+        pi = shape.pi(lb, stribeck.Fs)
+        # Slope of Pi_0 on (l_{m+1}, l_m] is sum_{i<=m} k_i; on (0, l_n] it is sum of all.
+        upper = jnp.concatenate([lb, jnp.zeros((1,), lb.dtype)])
+        values = jnp.concatenate([pi, jnp.zeros((1,), pi.dtype)])
+        slopes = (values[:-1] - values[1:]) / (upper[:-1] - upper[1:])
+        k = jnp.diff(slopes, prepend=jnp.zeros((1,), slopes.dtype))
+        return cls(stribeck=stribeck, sigma2=sigma2, C=C, nu=k * lb, k=k)
+
+    def _update(self, F, slipping, dx, s, same_direction, moving, decay):
+        """One sample for all elements at once (docs/algorithm.md section 5, steps 1-3)."""
+        slipping = slipping & same_direction
+        target = self.nu * s
+        f_slip = target + (F - target) * decay
+        bound = self.nu * jnp.abs(s)
+        f_stick = F + self.k * dx
+        exceeded = jnp.abs(f_stick) > bound
+        f_stick = jnp.clip(f_stick, -bound, bound)
+        return jnp.where(slipping, f_slip, f_stick), slipping | (exceeded & moving)
+
+    def _decay(self, dt, s, moving):
+        return jnp.where(moving, jnp.exp(-self.C * safe_div(dt, jnp.abs(s))), 1.0)
+
+    def init_state(self, x0: ArrayLike = 0.0) -> GMSState:
+        x0 = jnp.asarray(x0, dtype=self.C.dtype)
+        return GMSState(
+            F=jnp.zeros_like(self.nu),
+            slipping=jnp.zeros(self.nu.shape, bool),
+            last_d=jnp.zeros((), x0.dtype),
+            x_prev=x0,
+        )
+
+    def step(self, state: GMSState, x, v, dt):
+        x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
+        d = jnp.sign(v)
+        moving = d != 0
+        same = moving & (d == state.last_d)
+        last_d = jnp.where(moving, d, state.last_d)
+        s = self.stribeck.effective(v, last_d)
+        F, slipping = self._update(
+            state.F, state.slipping, x - state.x_prev, s, same, moving, self._decay(dt, s, moving)
+        )
+        new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x)
+        return new_state, jnp.sum(F) + self.sigma2 * v
+
+    def _simulate(self, motion: Motion) -> SimResult:
+        s = self.stribeck.effective(motion.v, motion.last_d)
+        moving = motion.moving
+        same = moving & (motion.d == motion.prev_last_d)
+        decay = self._decay(motion.dt, s, moving)
+
+        def body(carry, inp):
+            F, slipping = self._update(*carry, *inp)
+            return (F, slipping), jnp.sum(F)
+
+        carry0 = (jnp.zeros_like(self.nu), jnp.zeros(self.nu.shape, bool))
+        _, elements = jax.lax.scan(body, carry0, (motion.dx, s, same, moving, decay))
+        viscous = self.sigma2 * motion.v
+        return SimResult(
+            force=elements + viscous,
+            parts={"elements": elements, "viscous": viscous},
+            overflow=jnp.zeros((), jnp.int32),
+        )

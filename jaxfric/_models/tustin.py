@@ -1,0 +1,37 @@
+"""Tustin's static model: the Stribeck curve plus viscous friction."""
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+from .._inputs import Motion
+from .._numerics import as_param
+from .._stribeck import Stribeck
+from ._base import AbstractFrictionModel, SimResult
+
+
+class Tustin(AbstractFrictionModel):
+    """``F = s(v) + sigma2*v`` (N): no state, so no presliding, lag or memory; 0 at v = 0.
+
+    **Arguments:** `stribeck`; `sigma2` viscous coefficient (N s/m).
+    """
+
+    stribeck: Stribeck
+    sigma2: Array = eqx.field(converter=as_param)
+
+    def _force(self, v):
+        return self.stribeck(v) + self.sigma2 * v
+
+    def init_state(self, x0: ArrayLike = 0.0) -> tuple:
+        return ()
+
+    def step(self, state, x, v, dt):
+        return state, self._force(jnp.asarray(v))
+
+    def _simulate(self, motion: Motion) -> SimResult:
+        viscous = self.sigma2 * motion.v
+        return SimResult(
+            force=self._force(motion.v),
+            parts={"stribeck": self.stribeck(motion.v), "viscous": viscous},
+            overflow=jnp.zeros((), jnp.int32),
+        )

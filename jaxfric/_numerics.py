@@ -1,0 +1,60 @@
+"""Guarded elementary functions: finite values *and* finite gradients at singular points.
+
+Each uses the double-``where`` pattern (optax ``safe_norm``): the unsafe branch is fed a
+harmless value where it would be singular, so that its (discarded) gradient is finite too.
+"""
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+
+def safe_div(num: ArrayLike, den: ArrayLike) -> Array:
+    """``num / den``, and 0 where ``den == 0`` (value and gradient)."""
+    num = jnp.asarray(num)
+    den = jnp.asarray(den)
+    zero = den == 0
+    return jnp.where(zero, 0.0, num / jnp.where(zero, 1.0, den))
+
+
+def safe_pow(base: ArrayLike, exponent: ArrayLike) -> Array:
+    """``base ** exponent`` for ``base > 0``, and 0 for ``base <= 0``.
+
+    ``u ** p`` has an infinite derivative in ``u`` at 0 for ``p < 1`` and a ``0 * log(0)``
+    derivative in ``p``; both come out NaN under ``jax.grad`` without the guard.
+    """
+    base = jnp.asarray(base)
+    pos = base > 0
+    return jnp.where(pos, jnp.where(pos, base, 1.0) ** exponent, 0.0)
+
+
+def safe_exp_decay(rate_times_dt: ArrayLike) -> Array:
+    """``exp(-r)`` for ``r >= 0``; kept for symmetry and to clip tiny negative rounding."""
+    return jnp.exp(-jnp.maximum(jnp.asarray(rate_times_dt), 0.0))
+
+
+def as_param(x: ArrayLike) -> Array:
+    """Converter for parameter leaves: a floating, non-weakly-typed array.
+
+    Python floats would otherwise become weakly-typed arrays, whose dtype flag is part of
+    JIT cache keys (a model rebuilt from arrays would recompile).
+    """
+    arr = jnp.asarray(x)
+    dtype = arr.dtype if jnp.issubdtype(arr.dtype, jnp.floating) else jnp.asarray(0.0).dtype
+    return jnp.asarray(arr, dtype=dtype)
+
+
+def linear_recurrence(a: ArrayLike, b: ArrayLike) -> Array:
+    """``y_n = a_n * y_{n-1} + b_n`` with ``y_{-1} = 0``, along the first axis.
+
+    Computed with ``lax.associative_scan`` (parallel prefix): no sequential loop, and the
+    combine is stable for ``|a_n| <= 1`` (every use in jaxfric is an exact decay factor).
+    """
+
+    def combine(left, right):
+        a_l, b_l = left
+        a_r, b_r = right
+        return a_l * a_r, a_r * b_l + b_r
+
+    _, y = jax.lax.associative_scan(combine, (jnp.asarray(a), jnp.asarray(b)))
+    return y

@@ -1,0 +1,99 @@
+"""The one simulation entry point."""
+
+import warnings
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike
+
+from ._inputs import make_motion
+from ._models._base import AbstractFrictionModel, SimResult
+
+
+class StackOverflowWarning(UserWarning):
+    """A two-state memory stack was full and its oldest entries were dropped."""
+
+
+def _as_1d(name: str, a: ArrayLike):
+    arr = jnp.asarray(a)
+    if arr.ndim != 1:
+        raise ValueError(
+            f"{name} must be 1-D (one trajectory), got shape {arr.shape}; "
+            "use jax.vmap over jaxfric.simulate for a batch"
+        )
+    if not jnp.issubdtype(arr.dtype, jnp.floating):
+        arr = arr.astype(jnp.asarray(0.0).dtype)
+    return arr
+
+
+def _check_values(name: str, a) -> None:
+    if isinstance(a, jax.core.Tracer):
+        return
+    bad = ~np.isfinite(np.asarray(a))
+    if bad.any():
+        raise ValueError(f"{name} has a non-finite value at index {int(np.argmax(bad))}")
+
+
+@eqx.filter_jit
+def _run(model: AbstractFrictionModel, t, x, v) -> SimResult:
+    return model._simulate(make_motion(t, x, v))
+
+
+def simulate(
+    model: AbstractFrictionModel,
+    t: ArrayLike,
+    x: ArrayLike,
+    v: ArrayLike | None = None,
+    *,
+    full_output: bool = False,
+):
+    """Friction force of `model` along a motion.
+
+    **Arguments:**
+
+    - `model`: any jaxfric model (`TwoState`, `GMS`, `LuGre`, `Tustin`, ...), starting from
+      its zero state at ``x[0]``.
+    - `t`: sample times, s, 1-D, strictly increasing (irregular spacing is fine).
+    - `x`: positions, m, same shape as `t`.
+    - `v`: velocities, m/s, optional. If omitted, ``v`` is the backward difference of `x`
+      (``v[0] = 0``), so that its sign always agrees with the step (docs/algorithm.md).
+      The direction of motion is ``sign(v)``; pass measured or commanded velocities when
+      you have them (a backward difference lags by half a sample).
+    - `full_output`: return a `SimResult` (force, named parts, stack overflow count)
+      instead of the force array.
+
+    **Returns:** the friction force, N, one per sample (or a `SimResult`).
+
+    Compiled with ``equinox.filter_jit``; works under ``jax.vmap`` (over trajectories or over
+    models) and ``jax.grad`` with respect to every parameter of `model`. Warns with
+    `StackOverflowWarning` when memory entries had to be dropped (only outside traced code).
+    """
+    t = _as_1d("t", t)
+    x = _as_1d("x", x)
+    if x.shape != t.shape:
+        raise ValueError(f"t and x must have the same shape, got {t.shape} and {x.shape}")
+    if t.shape[0] < 1:
+        raise ValueError("need at least one sample")
+    if v is not None:
+        v = _as_1d("v", v)
+        if v.shape != t.shape:
+            raise ValueError(f"t and v must have the same shape, got {t.shape} and {v.shape}")
+    for name, a in (("t", t), ("x", x), ("v", v)):
+        if a is not None:
+            _check_values(name, a)
+    if not isinstance(t, jax.core.Tracer):
+        dt = np.diff(np.asarray(t))
+        if (dt <= 0).any():
+            i = int(np.argmax(dt <= 0)) + 1
+            raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+    result = _run(model, t, x, v)
+    if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
+        warnings.warn(
+            f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "
+            "points were dropped. Increase the model's stack_size.",
+            StackOverflowWarning,
+            stacklevel=2,
+        )
+    return result if full_output else result.force

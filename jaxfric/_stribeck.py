@@ -1,0 +1,46 @@
+"""The Stribeck curve ``s(v)`` (paper Eq. 3), without the viscous term."""
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+from ._numerics import as_param, safe_div, safe_pow
+
+
+class Stribeck(eqx.Module):
+    """``s(v) = sgn(v) * (Fc + (Fs - Fc) * exp(-(|v|/Vs)**delta))``.
+
+    **Arguments:**
+
+    - `Fs`: static (breakaway) level, N; the v -> 0 limit of ``|s(v)|``.
+    - `Fc`: Coulomb level, N.
+    - `Vs`: Stribeck velocity, m/s.
+    - `delta`: Stribeck shape exponent, dimensionless.
+
+    ``s(0) = 0``. The friction models use ``rest(D) = D * Fs`` at rest, the v -> 0 limit on
+    the side ``D`` of the last motion (see docs/algorithm.md section 2).
+    """
+
+    Fs: Array = eqx.field(converter=as_param)
+    Fc: Array = eqx.field(converter=as_param)
+    Vs: Array = eqx.field(converter=as_param)
+    delta: Array = eqx.field(converter=as_param)
+
+    def magnitude(self, v: ArrayLike) -> Array:
+        """``|s(v)|`` in N; equals ``Fs`` at ``v = 0`` (the limit), with finite gradients."""
+        u = safe_div(jnp.abs(jnp.asarray(v)), self.Vs)
+        return self.Fc + (self.Fs - self.Fc) * jnp.exp(-safe_pow(u, self.delta))
+
+    def __call__(self, v: ArrayLike) -> Array:
+        """``s(v)`` in N (0 at ``v = 0``)."""
+        v = jnp.asarray(v)
+        return jnp.sign(v) * self.magnitude(v)
+
+    def rest(self, direction: ArrayLike) -> Array:
+        """The v -> 0 limit of ``s`` on the side ``direction`` (+1, -1, or 0 for none), N."""
+        return jnp.asarray(direction) * self.Fs
+
+    def effective(self, v: ArrayLike, last_direction: ArrayLike) -> Array:
+        """``S``: ``s(v)`` while moving, the rest limit of the last motion at ``v = 0``."""
+        v = jnp.asarray(v)
+        return jnp.where(v != 0, self(v), self.rest(last_direction))
