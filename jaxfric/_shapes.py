@@ -44,10 +44,11 @@ class AbstractShape(eqx.Module):
         """``(Pi, kappa, gamma)`` at ``xi``; kappa in N/m, the others dimensionless."""
         xi = jnp.asarray(xi)
         s_st = jnp.asarray(s_st)
+        # Negative arguments are clipped to 0 first (all three are evaluated there).
+        xi = jnp.where(xi >= 0, xi, 0.0)
         # Pi is elementwise, so a JVP with a tangent of ones is its elementwise derivative.
         p, k = jax.jvp(lambda z: self.pi(z, s_st), (xi,), (jnp.ones_like(xi),))
-        g = p - jnp.where(xi >= 0, xi, 0.0) * k
-        return p, k, g
+        return p, k, p - xi * k
 
     def kappa(self, xi: ArrayLike, s_st: ArrayLike) -> Array:
         """``kappa(xi) = dPi/dxi`` in N/m."""
