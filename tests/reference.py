@@ -498,13 +498,16 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
                 target = nu[i] * S_n
                 Fi[i] = target + (Fi[i] - target) * math.exp(-C * float(dts[n]) / abs(S_n))
             else:
-                # 3. sticking: spring, then the symmetric slip limit
+                # 3. sticking: spring; slip starts at the limit in the direction of motion
                 Fi[i] = Fi[i] + k[i] * dx
-                limit = nu[i] * abs(S_n)
-                if abs(Fi[i]) > limit:
-                    Fi[i] = min(max(Fi[i], -limit), limit)
-                    if moving[n]:
-                        slipping[i] = True
+                if moving[n] and int(d[n]) * Fi[i] > nu[i] * abs(S_n):
+                    Fi[i] = nu[i] * S_n
+                    slipping[i] = True
+                else:
+                    # beyond the limit on the other side (|s| dropped): keeps sticking, but
+                    # never past what any element can hold
+                    cap = nu[i] * max(Fs, Fc)
+                    Fi[i] = min(max(Fi[i], -cap), cap)
 
         total = 0.0
         for i in range(m):

@@ -191,6 +191,20 @@ def test_many_element_gms_agrees_with_two_state_in_presliding():
     assert np.max(np.abs(gms5 - two)) > 3 * np.max(np.abs(gms - two))
 
 
+def test_gms_agrees_when_speed_changes_at_a_reversal():
+    """Regression: 0 -> 60 -> -60 um at 20 um/s, then back to +60 um at 100 um/s. |s| drops
+    at the reversal; GMS elements left beyond nu*|s| on the far side must keep sticking
+    (a symmetric slip limit made them creep: 12 N off). Two-state and a 200-element GMS
+    must agree as on any presliding path."""
+    t1, x1 = waypoint_path(np.array([0, 60, -60]) * UM, 20 * UM, 1e-3)
+    _, x2 = waypoint_path(np.array([-60, 60]) * UM, 100 * UM, 1e-3)
+    x = np.r_[x1, x2[1:]]
+    t = 1e-3 * np.arange(x.size)
+    two = np.asarray(jaxfric.simulate(paper.two_state(), t, x))
+    gms = np.asarray(jaxfric.simulate(paper.gms(200), t, x))
+    assert np.max(np.abs(gms - two)) < 0.02 * FS
+
+
 def test_lag_converges_with_the_step_size():
     """F_l must not depend on dt beyond a first-order error (a spec bug once made the
     first step after a reversal leak -gamma*2*Fs into F_l: 0.8 N at 1 ms)."""

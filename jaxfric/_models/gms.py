@@ -79,16 +79,18 @@ class GMS(AbstractFrictionModel):
         k = jnp.diff(slopes, prepend=jnp.zeros((1,), slopes.dtype))
         return cls(stribeck=stribeck, sigma2=sigma2, C=C, nu=k * lb, k=k)
 
-    def _update(self, F, slipping, dx, s, same_direction, moving, decay):
+    def _update(self, F, slipping, dx, s, d, same_direction, decay):
         """One sample for all elements at once (docs/algorithm.md section 5, steps 1-3)."""
         slipping = slipping & same_direction
         target = self.nu * s
         f_slip = target + (F - target) * decay
-        bound = self.nu * jnp.abs(s)
         f_stick = F + self.k * dx
-        exceeded = jnp.abs(f_stick) > bound
-        f_stick = jnp.clip(f_stick, -bound, bound)
-        return jnp.where(slipping, f_slip, f_stick), slipping | (exceeded & moving)
+        # Slip starts only at the limit in the direction of motion (Eq. 2); on the other
+        # side an element may sit beyond nu*|s| after |s| dropped, and keeps sticking.
+        starts = (d != 0) & (d * f_stick > self.nu * jnp.abs(s))
+        cap = self.nu * jnp.maximum(self.stribeck.Fs, self.stribeck.Fc)
+        f_stick = jnp.where(starts, target, jnp.clip(f_stick, -cap, cap))
+        return jnp.where(slipping, f_slip, f_stick), slipping | starts
 
     def _decay(self, dt, s, moving):
         return jnp.where(moving, jnp.exp(-self.C * safe_div(dt, jnp.abs(s))), 1.0)
@@ -110,7 +112,7 @@ class GMS(AbstractFrictionModel):
         last_d = jnp.where(moving, d, state.last_d)
         s = self.stribeck.effective(v, last_d)
         F, slipping = self._update(
-            state.F, state.slipping, x - state.x_prev, s, same, moving, self._decay(dt, s, moving)
+            state.F, state.slipping, x - state.x_prev, s, d, same, self._decay(dt, s, moving)
         )
         new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x)
         return new_state, jnp.sum(F) + self.sigma2 * v
@@ -126,7 +128,7 @@ class GMS(AbstractFrictionModel):
             return (F, slipping), jnp.sum(F)
 
         carry0 = (jnp.zeros_like(self.nu), jnp.zeros(self.nu.shape, bool))
-        _, elements = jax.lax.scan(body, carry0, (motion.dx, s, same, moving, decay))
+        _, elements = jax.lax.scan(body, carry0, (motion.dx, s, motion.d, same, decay))
         viscous = self.sigma2 * motion.v
         return SimResult(
             force=elements + viscous,
