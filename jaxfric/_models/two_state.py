@@ -24,11 +24,17 @@ from ._base import AbstractFrictionModel, SimResult
 
 
 class MemoryStack(eqx.Module):
-    """Reversal points as fixed-size arrays; entries ``0..top`` are in use.
+    """Reversal points in fixed-size arrays used as a circular buffer.
+
+    Logical entry ``i`` (0 = bottom, ``depth - 1`` = top) lives in slot ``(base + i) % K``.
+    Wiping-out and overflow only move `base`, and a push writes one slot, so the per-sample
+    cost does not grow with ``K`` except for the vectorised loop-closure test.
 
     Per entry: `x` (m), `h` = F_h at the start of the branch (N), `s` = the Stribeck rest
     value at the reversal (N; 0 for the zero state), `theta` = its presliding extent
     ``|x - x_below| / |s - s_below|`` (m/N), `closable` = ``theta <= l1`` (Eq. 25/29).
+    `zero_bottom` says whether the bottom entry is the zero state; `overflow` counts the
+    entries dropped because the buffer was full.
     """
 
     x: Float[Array, " K"]
@@ -36,7 +42,8 @@ class MemoryStack(eqx.Module):
     s: Float[Array, " K"]
     theta: Float[Array, " K"]
     closable: Bool[Array, " K"]
-    top: Int[Array, ""]
+    base: Int[Array, ""]
+    depth: Int[Array, ""]
     zero_bottom: Bool[Array, ""]
     overflow: Int[Array, ""]
 
@@ -50,13 +57,25 @@ class MemoryStack(eqx.Module):
             s=zeros,
             theta=zeros,
             closable=jnp.zeros((size,), bool),
-            top=jnp.zeros((), jnp.int32),
+            base=jnp.zeros((), jnp.int32),
+            depth=jnp.ones((), jnp.int32),
             zero_bottom=jnp.ones((), bool),
             overflow=jnp.zeros((), jnp.int32),
         )
 
+    @property
+    def top(self) -> Array:
+        """Slot of the top entry."""
+        return (self.base + self.depth - 1) % self.x.shape[0]
+
+    def levels(self) -> Array:
+        """Logical index of every slot (meaningful where it is < `depth`)."""
+        size = self.x.shape[0]
+        return (jnp.arange(size, dtype=jnp.int32) - self.base) % size
+
     def top_entry(self) -> tuple[Array, Array, Array]:
-        return self.x[self.top], self.h[self.top], self.s[self.top]
+        top = self.top
+        return self.x[top], self.h[top], self.s[top]
 
 
 class TwoStateState(eqx.Module):
@@ -102,37 +121,42 @@ class TwoState(AbstractFrictionModel):
         p, _, g = self.shape.pi_kappa_gamma(xi, self.stribeck.Fs)
         return h_e + p * den, xi, g
 
-    def _push(self, stack: MemoryStack, x_r, s_r) -> MemoryStack:
-        """Rule 1 at reversal point ``x_r`` (rest value ``s_r``), with wiping and overflow."""
+    def _push(self, stack: MemoryStack, reversal, x_r, s_r) -> MemoryStack:
+        """Rule 1 at reversal point ``x_r`` (rest value ``s_r``), with wiping and overflow;
+        nothing changes where `reversal` is false."""
         size = stack.x.shape[0]
+        top = stack.top
         x_e, h_e, s_e = stack.top_entry()
         den = s_r - s_e
         # F_h at the reversal, in the v -> 0 limit s = s_r (MODEL_NOTES, traps).
         h_r = h_e + self.shape.pi(safe_div(x_r - x_e, den), self.stribeck.Fs) * den
         theta = safe_div(jnp.abs(x_r - x_e), jnp.abs(den))
         # Wiping-out: a reversal outside presliding makes every entry below the current
-        # branch start unreachable; shift so that this start becomes the bottom (kept).
-        shift = jnp.where(theta > self.shape.l1, stack.top, 0)
-        new_top = stack.top - shift + 1
-        over = new_top >= size
-        shift = shift + over.astype(jnp.int32)
-        new_top = new_top - over.astype(jnp.int32)
-        idx = jnp.arange(size, dtype=jnp.int32)
-        src = jnp.minimum(idx + shift, size - 1)
-        put = idx == new_top
+        # branch start unreachable; that start becomes the bottom (it is kept).
+        wipe = theta > self.shape.l1
+        base = jnp.where(wipe, top, stack.base)
+        depth = jnp.where(wipe, 1, stack.depth) + 1
+        over = depth > size
+        base = jnp.where(over, (base + 1) % size, base)
+        depth = jnp.where(over, size, depth)
+        base = jnp.where(reversal, base, stack.base)
+        depth = jnp.where(reversal, depth, stack.depth)
+        slot = (base + depth - 1) % size
 
-        def move(a, value):
-            return jnp.where(put, value, a[src])
+        def put(a, value):
+            return a.at[slot].set(jnp.where(reversal, value, a[slot]))
 
+        dropped = reversal & (over | (wipe & (stack.depth > 1)))
         return MemoryStack(
-            x=move(stack.x, x_r),
-            h=move(stack.h, h_r),
-            s=move(stack.s, s_r),
-            theta=move(stack.theta, theta),
-            closable=move(stack.closable, theta <= self.shape.l1),
-            top=new_top,
-            zero_bottom=stack.zero_bottom & (shift == 0),
-            overflow=stack.overflow + over.astype(jnp.int32),
+            x=put(stack.x, x_r),
+            h=put(stack.h, h_r),
+            s=put(stack.s, s_r),
+            theta=put(stack.theta, theta),
+            closable=put(stack.closable, theta <= self.shape.l1),
+            base=base,
+            depth=depth,
+            zero_bottom=stack.zero_bottom & ~dropped,
+            overflow=stack.overflow + (reversal & over).astype(jnp.int32),
         )
 
     @staticmethod
@@ -144,26 +168,48 @@ class TwoState(AbstractFrictionModel):
         once; the run of closed levels from the top down decides the new top.
         """
         size = stack.x.shape[0]
-        idx = jnp.arange(size, dtype=jnp.int32)
+        lev = stack.levels()
+        top = stack.depth - 1
         xi = safe_div(x - stack.x, s - stack.s)
-        level = (idx >= 1) & (idx <= stack.top) & ((stack.top - idx) % 2 == 0)
+        level = (lev >= 1) & (lev <= top) & ((top - lev) % 2 == 0)
         # Level 1 can close only onto the zero state (Rule 3); otherwise its lower
-        # neighbour was dropped by overflow and the information is gone.
-        valid = stack.closable & ((idx >= 2) | stack.zero_bottom)
+        # neighbour was dropped (wiping or overflow) and there is nothing to close onto.
+        valid = stack.closable & ((lev >= 2) | stack.zero_bottom)
         blocked = level & ~(valid & (xi >= stack.theta))
-        highest_blocked = jnp.max(jnp.where(blocked, idx, -1))
-        lowest_closed = jnp.min(jnp.where(level & (idx > highest_blocked), idx, size))
+        highest_blocked = jnp.max(jnp.where(blocked, lev, -1))
+        lowest_closed = jnp.min(jnp.where(level & (lev > highest_blocked), lev, size))
         new_top = jnp.where(
             lowest_closed >= size,
-            stack.top,
+            top,
             jnp.where(lowest_closed == 1, 0, lowest_closed - 2),
         )
-        return eqx.tree_at(lambda st: st.top, stack, new_top.astype(jnp.int32))
+        return eqx.tree_at(lambda st: st.depth, stack, (new_top + 1).astype(jnp.int32))
 
     def _events(self, stack, x, s, reversal, x_r, s_r) -> MemoryStack:
-        pushed = self._push(stack, x_r, s_r)
-        stack = jax.tree.map(lambda a, b: jnp.where(reversal, a, b), pushed, stack)
-        return self._close(stack, x, s)
+        """Rule 1 (push) then Rules 2-3 (closures) for one sample.
+
+        Both are rare, so an ordinary sample only pays for a few scalar tests: the push
+        runs under ``lax.cond`` on `reversal`, and the K-wide closure cascade only when the
+        top level closes (a cascade always starts there). Under ``vmap`` the conds become
+        selects, and the per-sample cost is then shared by the whole batch.
+        """
+        stack = jax.lax.cond(
+            reversal,
+            lambda st: self._push(st, True, x_r, s_r),
+            lambda st: st,
+            stack,
+        )
+        top = stack.top
+        x_e, s_e = stack.x[top], stack.s[top]
+        # Same test as `_close` applies to the top level (level >= 1, closable, xi >= theta);
+        # level 1 needs the zero state below it.
+        top_closes = (
+            (stack.depth >= 2)
+            & stack.closable[top]
+            & ((stack.depth >= 3) | stack.zero_bottom)
+            & (safe_div(x - x_e, s - s_e) >= stack.theta[top])
+        )
+        return jax.lax.cond(top_closes, lambda st: self._close(st, x, s), lambda st: st, stack)
 
     def _lag_coefficients(self, dt, s, d, prev_last_d, reversal, s_prev, gamma):
         """``F_l,n = a * F_l,n-1 + b`` (docs/algorithm.md section 4, step 4)."""
@@ -213,10 +259,10 @@ class TwoState(AbstractFrictionModel):
 
         def body(stack, inp):
             stack = self._events(stack, *inp)
-            return stack, (*stack.top_entry(), stack.top)
+            return stack, (*stack.top_entry(), stack.depth)
 
         stack0 = MemoryStack.zero_state(self.stack_size, motion.x[0])
-        final, (x_e, h_e, s_e, top) = jax.lax.scan(
+        final, (x_e, h_e, s_e, depth) = jax.lax.scan(
             body, stack0, (motion.x, s, reversal, motion.x_prev, s_r)
         )
         f_h, _, gamma = self._branch(motion.x, s, x_e, h_e, s_e)
@@ -228,6 +274,6 @@ class TwoState(AbstractFrictionModel):
         viscous = self.sigma2 * motion.v
         return SimResult(
             force=f_h + lag + viscous,
-            parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": top + 1},
+            parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
             overflow=final.overflow,
         )
