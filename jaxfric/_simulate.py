@@ -28,6 +28,22 @@ def _as_1d(name: str, a: ArrayLike):
     return arr
 
 
+def _common_float(*arrays):
+    """Cast to one floating dtype (the widest given), so float32 times with float64
+    positions work under strict dtype promotion too."""
+    dtype = max((a.dtype for a in arrays), key=lambda d: d.itemsize)
+    return tuple(a.astype(dtype) for a in arrays)
+
+
+def _strong(leaf):
+    """A parameter leaf without the weak-type flag (set by ``eqx.tree_at(..., 2.0)`` or a
+    Python-scalar ``jnp.asarray``), which is part of the JIT cache key: without this, an
+    edited model would recompile."""
+    if eqx.is_inexact_array(leaf) and getattr(leaf, "weak_type", False):
+        return jnp.asarray(leaf, dtype=leaf.dtype)
+    return leaf
+
+
 def _check_values(name: str, a) -> None:
     if isinstance(a, jax.core.Tracer):
         return
@@ -83,11 +99,16 @@ def simulate(
     for name, a in (("t", t), ("x", x), ("v", v)):
         if a is not None:
             _check_values(name, a)
+    if v is None:
+        t, x = _common_float(t, x)
+    else:
+        t, x, v = _common_float(t, x, v)
     if not isinstance(t, jax.core.Tracer):
         dt = np.diff(np.asarray(t))
         if (dt <= 0).any():
             i = int(np.argmax(dt <= 0)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+    model = jax.tree.map(_strong, model)
     result = _run(model, t, x, v)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
