@@ -4,10 +4,12 @@ Units are SI everywhere: time s, position m, velocity m/s, force N. Importing ja
 on JAX's float64 mode (see `jaxfric._config` for why and how to opt out).
 """
 
-from . import _config  # noqa: F401  (x64 policy: must run before any array is made)
-from . import paper as paper
+from . import (
+    _config,  # noqa: F401  (x64 policy: must run before any array is made)
+    paper as paper,
+)
 from ._config import x64_enabled as x64_enabled
-from ._inputs import Motion as Motion, make_motion as make_motion
+from ._inputs import make_motion as make_motion, Motion as Motion
 from ._models._base import AbstractFrictionModel as AbstractFrictionModel, SimResult as SimResult
 from ._models.gms import GMS as GMS, GMSState as GMSState
 from ._models.lugre import LuGre as LuGre, LuGreState as LuGreState
@@ -17,8 +19,13 @@ from ._models.two_state import (
     TwoState as TwoState,
     TwoStateState as TwoStateState,
 )
-from ._shapes import AbstractShape as AbstractShape, PaperShape as PaperShape, PowerShape as PowerShape
-from ._simulate import StackOverflowWarning as StackOverflowWarning, simulate as simulate
+from ._shapes import (
+    AbstractShape as AbstractShape,
+    PaperShape as PaperShape,
+    PowerShape as PowerShape,
+)
+from ._simulate import simulate as simulate, StackOverflowWarning as StackOverflowWarning
 from ._stribeck import Stribeck as Stribeck
+
 
 __version__ = "0.1.0"

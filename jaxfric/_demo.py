@@ -9,6 +9,7 @@ from . import paper
 from ._simulate import simulate
 from .examples import excitation
 
+
 NOISE_N = 0.05
 
 
@@ -60,7 +61,7 @@ def run(out: Path, log=print) -> dict:
             row[reg] = float(np.sqrt(np.mean(err[m] ** 2)))
         table[name] = row
     cols = ["all", *regimes]
-    log("\nRMS error against the measurement, N (noise level %.2f N):" % NOISE_N)
+    log(f"\nRMS error against the measurement, N (noise level {NOISE_N:.2f} N):")
     log(f"{'model':<10}" + "".join(f"{c:>21}" for c in cols))
     for name, row in table.items():
         log(f"{name:<10}" + "".join(f"{row[c]:>21.3f}" for c in cols))

@@ -4,7 +4,7 @@ import numpy as np
 
 
 def _segment(x0, x1, speed, dt):
-    n = max(int(round(abs(x1 - x0) / speed / dt)), 1)
+    n = max(round(abs(x1 - x0) / speed / dt), 1)
     return np.linspace(x0, x1, n + 1)[1:]
 
 

@@ -1,5 +1,7 @@
 """Motions and glue shared by the tests."""
 
+import itertools
+
 import numpy as np
 
 import jaxfric
@@ -13,10 +15,10 @@ def waypoint_path(waypoints, speed, dt, dwell=0.0, t0=0.0):
     motion rests that long at every waypoint. Returns (t, x).
     """
     xs = [waypoints[0]]
-    for a, b in zip(waypoints[:-1], waypoints[1:]):
-        n = max(int(round(abs(b - a) / speed / dt)), 1)
+    for a, b in itertools.pairwise(waypoints):
+        n = max(round(abs(b - a) / speed / dt), 1)
         xs.extend(np.linspace(a, b, n + 1)[1:])
-        xs.extend([b] * int(round(dwell / dt)))
+        xs.extend([b] * round(dwell / dt))
     x = np.asarray(xs, dtype=np.float64)
     return t0 + dt * np.arange(x.size), x
 
@@ -46,16 +48,15 @@ def sine_path(n=6000, dt=1e-3, irregular=False, seed=0):
     t = np.concatenate([[0.0], np.cumsum(steps[1:])])
     w1, w2 = 2 * np.pi / 2.0, 2 * np.pi * 1.7
     x = 150 * UM * np.sin(w1 * t) * np.exp(-t / 4) + 30 * UM * np.sin(w2 * t)
-    v = 150 * UM * np.exp(-t / 4) * (w1 * np.cos(w1 * t) - np.sin(w1 * t) / 4) + 30 * UM * w2 * np.cos(
-        w2 * t
-    )
+    v = 150 * UM * np.exp(-t / 4) * (w1 * np.cos(w1 * t) - np.sin(w1 * t) / 4)
+    v = v + 30 * UM * w2 * np.cos(w2 * t)
     return t, x, v
 
 
 def ref_kwargs(model):
     """Keyword arguments for tests/reference.py equivalent to a jaxfric model."""
     st = model.stribeck
-    kw = dict(Fs=float(st.Fs), Fc=float(st.Fc), Vs=float(st.Vs), delta=float(st.delta))
+    kw = {"Fs": float(st.Fs), "Fc": float(st.Fc), "Vs": float(st.Vs), "delta": float(st.delta)}
     if isinstance(model, TwoState):
         sh = model.shape
         if isinstance(sh, PaperShape):

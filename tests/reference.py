@@ -39,22 +39,24 @@ Choices made where the specification leaves room (they are repeated in the docst
    default breakpoints, l_2 = 0.966*l1 lies in the clipped (flat) part, so k_1 = nu_1 = 0.
 """
 
+import itertools
 import math
 
 import numpy as np
 
+
 # Paper values (Table 1 and Sec. 6.2), converted to SI. Handy for tests.
-PAPER_STRIBECK = dict(Fs=26.1, Fc=21.6, Vs=3.1e-3, delta=0.6)
+PAPER_STRIBECK = {"Fs": 26.1, "Fc": 21.6, "Vs": 3.1e-3, "delta": 0.6}
 PAPER_SIGMA2 = 54.0  # N s/m  (0.054 N s/mm)
 PAPER_C = 10.8  # N/s
-PAPER_SHAPE = dict(
-    a=2631.0,  # N
-    b=-0.0438 * 1000.0**0.3,  # m^-alpha  (-0.0438 mm^-0.3)
-    c=2367.9e12,  # N/m^4     (2367.9 N/mm^4)
-    alpha=0.3,  # -
-    beta=1e-6,  # m         (1e-3 mm)
-    l1=4.291e-6,  # m/N       (0.004291 mm/N)
-)
+PAPER_SHAPE = {
+    "a": 2631.0,  # N
+    "b": -0.0438 * 1000.0**0.3,  # m^-alpha  (-0.0438 mm^-0.3)
+    "c": 2367.9e12,  # N/m^4     (2367.9 N/mm^4)
+    "alpha": 0.3,  # -
+    "beta": 1e-6,  # m         (1e-3 mm)
+    "l1": 4.291e-6,  # m/N       (0.004291 mm/N)
+}
 
 
 def _as_output(values, like):
@@ -284,7 +286,7 @@ def prepare(t, x, v=None):
         if moving[n]:
             last = d[n]
         D[n] = last
-    return dict(t=t, x=x, dt=dt, v=v, d=d, moving=moving, D=D)
+    return {"t": t, "x": x, "dt": dt, "v": v, "d": d, "moving": moving, "D": D}
 
 
 def _effective_S(prep, n, Fs, Fc, Vs, delta):
@@ -356,7 +358,7 @@ def two_state(
     l1, shape_f = _shape_scalar_func(shape, shape_params, Fs)
 
     # The stack: a Python list, bottom first. The zero state has no theta.
-    stack = [dict(x=float(xs[0]), h=0.0, s=0.0, theta=None, closable=False)]
+    stack = [{"x": float(xs[0]), "h": 0.0, "s": 0.0, "theta": None, "closable": False}]
     zero_bottom = True
     overflow = 0
 
@@ -390,7 +392,7 @@ def two_state(
                 e_is_zero_state = len(stack) == 1 and zero_bottom
                 stack = [e]
                 zero_bottom = e_is_zero_state
-            stack.append(dict(x=x_r, h=h_r, s=s_r, theta=theta, closable=(theta <= l1)))
+            stack.append({"x": x_r, "h": h_r, "s": s_r, "theta": theta, "closable": (theta <= l1)})
             if len(stack) > K:
                 stack.pop(0)  # drop the oldest entry
                 zero_bottom = False
@@ -447,7 +449,7 @@ def two_state(
         S_prev_sample = S_n
         Fl_prev_sample = Fl_n
 
-    return dict(F=F, Fh=Fh, Fl=Fl, S=S_out, xi=xi_out, depth=depth, overflow=int(overflow))
+    return {"F": F, "Fh": Fh, "Fl": Fl, "S": S_out, "xi": xi_out, "depth": depth, "overflow": int(overflow)}
 
 
 # ---------------------------------------------------------------------------------------
@@ -514,7 +516,7 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
             total += Fi[i]
             Fi_out[n, i] = Fi[i]
         F_out[n] = total + sigma2 * float(vs[n])
-    return dict(F=F_out, Fi=Fi_out)
+    return {"F": F_out, "Fi": Fi_out}
 
 
 def gms_from_shape_elements(pi_func, l1, n, breakpoints=None):
@@ -603,7 +605,7 @@ def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
         zdot = v_n - sigma0 * abs(v_n) * z / g
         F[n] = sigma0 * z + sigma1 * zdot + sigma2 * v_n
         z_out[n] = z
-    return dict(F=F, z=z_out)
+    return {"F": F, "z": z_out}
 
 
 def tustin(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2):
@@ -617,7 +619,7 @@ def tustin(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2):
     F = np.zeros(vs.size)
     for n in range(vs.size):
         F[n] = _stribeck_scalar(float(vs[n]), Fs, Fc, Vs, delta) + sigma2 * float(vs[n])
-    return dict(F=F)
+    return {"F": F}
 
 
 # ---------------------------------------------------------------------------------------
@@ -633,8 +635,8 @@ def _path(points, speed, dt):
     """
     step = speed * dt
     xs = [points[0]]
-    for a, b in zip(points[:-1], points[1:]):
-        m = int(round(abs(b - a) / step))
+    for a, b in itertools.pairwise(points):
+        m = round(abs(b - a) / step)
         assert abs(m * step - abs(b - a)) < 1e-12 * max(1.0, abs(b - a)) + 1e-15
         sgn = 1.0 if b > a else -1.0
         for j in range(1, m + 1):
@@ -745,22 +747,22 @@ def _self_check():
     print(f"  depth along nested path (changes): {np.unique(r_nest['depth']).tolist()},"
           f" final depth {r_nest['depth'][-1]}, direct final depth {r_dir['depth'][-1]}")
     # both paths end with the same grid from just below x = 0 down to -A
-    n_tail = int(round(A / (speed * dt)))  # samples strictly below 0 on the last segment
+    n_tail = round(A / (speed * dt))  # samples strictly below 0 on the last segment
     dF = np.abs(r_nest["F"][-n_tail:] - r_dir["F"][-n_tail:])
     assert np.allclose(x_nest[-n_tail:], x_dir[-n_tail:], atol=1e-15)
     report("two_state max |F_nested - F_direct| for x < 0 after closure", np.max(dF), 1e-6)
     # before the closure (between the inner reversal at A/2 and 0) the forces differ
-    n_last = int(round(1.5 * A / (speed * dt)))
+    n_last = round(1.5 * A / (speed * dt))
     print(f"  info: max |F_nested - F_direct| on the whole last segment (incl. before closure):"
           f" {np.max(np.abs(r_nest['F'][-n_last:] - r_dir['F'][-n_last:])):.3f} N")
-    i_A = int(round(A / (speed * dt)))  # sample at x = +A
+    i_A = round(A / (speed * dt))  # sample at x = +A
     # virgin curve: F_h = Pi(x/S)*S
     S1 = r_dir["S"][1:i_A + 1]
     virgin = paper_pi(x_dir[1:i_A + 1] / S1, **sh, Fs=Fs) * S1
     report("two_state virgin curve (Fh vs Pi(x/S)*S)", np.max(np.abs(r_dir["Fh"][1:i_A + 1] - virgin)), 1e-12)
     # branch from +A (until Rule 3 near -A): h_A + Pi((x-A)/(S-Fs))*(S-Fs), with the branch
     # start stored in the v -> 0 limit, h_A = Pi(A/Fs)*Fs (not the F_h of the last moving sample)
-    seg = slice(i_A + 1, i_A + 1 + int(round(1.9 * A / (speed * dt))))
+    seg = slice(i_A + 1, i_A + 1 + round(1.9 * A / (speed * dt)))
     S_seg = r_dir["S"][seg]
     h_A = paper_pi(A / Fs, **sh, Fs=Fs) * Fs
     branch = h_A + paper_pi((x_dir[seg] - A) / (S_seg - Fs), **sh, Fs=Fs) * (S_seg - Fs)
@@ -786,7 +788,7 @@ def _self_check():
     lp = 3e-6
     nu1, k1 = gms_from_shape_elements(lambda q: power_pi(q, lp, 1.0), lp, 5)
     print(f"  info: nu = {np.array2string(nu1, precision=3)}")
-    r2p = two_state(t_nest, x_nest, **common, shape="power", shape_params=dict(l1=lp, n=1.0))
+    r2p = two_state(t_nest, x_nest, **common, shape="power", shape_params={"l1": lp, "n": 1.0})
     rgp = gms(t_nest, x_nest, **common, nu=nu1, k=k1)
     print(f"  info: max |F_gms - F_two_state| = {np.max(np.abs(rgp['F'] - r2p['F'])):.4f} N")
 

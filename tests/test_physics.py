@@ -7,7 +7,8 @@ import pytest
 import jaxfric
 from jaxfric import paper
 
-from .helpers import UM, flat_stribeck_two_state, nested_path, waypoint_path
+from .helpers import flat_stribeck_two_state, nested_path, UM, waypoint_path
+
 
 FS = 26.1
 
@@ -65,7 +66,7 @@ def test_paper_shape_is_clipped_where_F_overshoots():
 def test_virgin_curve_and_masing_branches():
     model = flat_stribeck_two_state()
     sh = model.shape
-    t, x, f, parts = _run(model, [0, 100, -100])
+    _t, x, f, parts = _run(model, [0, 100, -100])
     assert np.all(parts["lag"] == 0.0)  # flat s: nothing drives F_l
     up = slice(0, int(np.argmax(x)) + 1)
     virgin = FS * np.asarray(sh.pi(jnp.asarray(x[up] / FS), FS))
@@ -196,7 +197,7 @@ def test_gms_agrees_when_speed_changes_at_a_reversal():
     at the reversal; GMS elements left beyond nu*|s| on the far side must keep sticking
     (a symmetric slip limit made them creep: 12 N off). Two-state and a 200-element GMS
     must agree as on any presliding path."""
-    t1, x1 = waypoint_path(np.array([0, 60, -60]) * UM, 20 * UM, 1e-3)
+    _t1, x1 = waypoint_path(np.array([0, 60, -60]) * UM, 20 * UM, 1e-3)
     _, x2 = waypoint_path(np.array([-60, 60]) * UM, 100 * UM, 1e-3)
     x = np.r_[x1, x2[1:]]
     t = 1e-3 * np.arange(x.size)
