@@ -1,5 +1,6 @@
 """Agreement with the independent plain-NumPy reference (tests/reference.py)."""
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ from jaxfric import paper
 
 from . import reference as ref
 from .helpers import nested_path, ref_kwargs, sine_path, strokes_path
+
 
 TOL = 1e-6  # N
 
@@ -83,14 +85,17 @@ def test_paths_exercise_the_events():
 
 
 def test_step_api_matches_simulate():
-    """The per-sample `step` (closed-loop API) gives the same numbers as `simulate`."""
+    """The per-sample `step` (closed-loop API), called from Python one sample at a time,
+    gives the same numbers as `simulate`. (Jitted, as a user stepping a loop from Python
+    would: eagerly, each call would re-trace the `lax.cond`s of the event logic.)"""
     t, x, v = sine_path(n=3000)
+    step = eqx.filter_jit(lambda m, *args: m.step(*args))
     for model in (paper.two_state(), paper.gms5(), paper.lugre(), paper.tustin()):
         state = model.init_state(x[0])
         dt = np.diff(t, prepend=t[0])
         forces = []
         for xi, vi, dti in zip(x[:400], v[:400], dt[:400]):
-            state, f = model.step(state, xi, vi, dti)
+            state, f = step(model, state, xi, vi, dti)
             forces.append(float(f))
         full = jaxfric.simulate(model, t[:400], x[:400], v[:400])
         np.testing.assert_allclose(forces, np.asarray(full), atol=1e-9, rtol=0)
