@@ -6,6 +6,7 @@ import sys
 import time
 from pathlib import Path
 
+
 DEMO_HELP = """\
 Run the built-in example end to end and write a report.
 

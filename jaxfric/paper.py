@@ -15,6 +15,7 @@ from ._models.two_state import TwoState
 from ._shapes import PaperShape
 from ._stribeck import Stribeck
 
+
 #: Attraction parameter C of the paper (Sec. 6.2), N/s.
 C = 10.8
 #: Viscous coefficient sigma2 of Table 1: 0.054 N s/mm, in N s/m.
