@@ -1,0 +1,133 @@
+"""Measured experiments, their checks, and stacking several of them into one padded array.
+
+Several experiments are fitted together (the staged procedure's joint fit, or a batch) as
+arrays of shape ``(D, n)``: shorter ones are padded to the common length ``n`` with samples
+of weight 0 that continue the time axis and hold the last position (the model is at rest
+there, so padding creates no events). One shape for all stages means one compilation.
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array
+
+
+class Dataset(eqx.Module):
+    """One experiment, SI units, 1-D arrays of equal length.
+
+    - `t`: sample times, s, strictly increasing.
+    - `x`: positions, m.
+    - `F`: measured friction force, N (sign convention of the models: the sign of ``v``).
+    - `v`: velocities, m/s, or ``None`` for the backward difference of `x` (as
+      `jaxfric.simulate`).
+    - `weights`: per-sample weights >= 0 (inverse relative variances; 0 drops a sample),
+      or ``None`` for all ones.
+    """
+
+    t: Array
+    x: Array
+    F: Array
+    v: Array | None = None
+    weights: Array | None = None
+
+
+def _array(name: str, a, where: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim != 1:
+        raise ValueError(f"{where}{name} must be 1-D, got shape {arr.shape}")
+    return arr
+
+
+def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> Dataset:
+    """Validate `data` in NumPy (outside any jit) and return it as float64 arrays.
+
+    Shapes, finite `t`/`x`/`v`, strictly increasing `t`, weights >= 0 raise `ValueError`
+    naming the array and the index. Non-finite `F` raises too when `check_force`; otherwise
+    (batches) it is left to the solver, which reports it in that dataset's result code.
+    Samples of weight 0 may hold anything in `F` (it is zeroed).
+    """
+    t = _array("t", data.t, where)
+    n = t.shape[0]
+    if n < 2:
+        raise ValueError(f"{where}need at least 2 samples, got {n}")
+    out = {"t": t}
+    for name in ("x", "F", "v", "weights"):
+        a = getattr(data, name)
+        if a is None:
+            out[name] = None
+            continue
+        arr = _array(name, a, where)
+        if arr.shape != t.shape:
+            raise ValueError(f"{where}{name} has shape {arr.shape}, t has {t.shape}")
+        out[name] = arr
+    w = out["weights"] if out["weights"] is not None else np.ones_like(t)
+    for name in ("t", "x", "v", "weights") + (("F",) if check_force else ()):
+        a = out[name]
+        if name == "F":
+            a = np.where(w > 0, a, 0.0)
+        if a is not None and not np.all(np.isfinite(a)):
+            i = int(np.argmax(~np.isfinite(a)))
+            raise ValueError(f"{where}{name} has a non-finite value at index {i}")
+    bad = np.diff(t) <= 0
+    if bad.any():
+        i = int(np.argmax(bad)) + 1
+        raise ValueError(f"{where}t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+    if (w < 0).any():
+        raise ValueError(f"{where}weights must be >= 0; weights[{int(np.argmax(w < 0))}] < 0")
+    if not (w > 0).any():
+        raise ValueError(f"{where}all weights are 0")
+    out["F"] = np.where(w > 0, out["F"], 0.0)
+    out["weights"] = w
+    return Dataset(**out)
+
+
+def backward_velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``v_0 = 0``, ``v_n = (x_n - x_{n-1}) / (t_n - t_{n-1})`` (as `jaxfric.simulate`)."""
+    return np.concatenate([[0.0], np.diff(x) / np.diff(t)])
+
+
+def pad(data: Dataset, n: int) -> Dataset:
+    """`data` (checked, NumPy) padded to `n` samples of weight 0 (see module docstring)."""
+    m = data.t.shape[0]
+    if n < m:
+        raise ValueError(f"cannot pad {m} samples to {n}")
+    k = n - m
+    step = data.t[-1] - data.t[-2]
+    t = np.concatenate([data.t, data.t[-1] + step * np.arange(1, k + 1)])
+
+    def hold(a, fill):
+        return None if a is None else np.concatenate([a, np.full(k, fill)])
+
+    return Dataset(
+        t=t,
+        x=hold(data.x, data.x[-1]),
+        F=hold(data.F, 0.0),
+        v=hold(data.v, 0.0),
+        weights=hold(data.weights, 0.0),
+    )
+
+
+def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
+    """Checked datasets padded to a common length and stacked: arrays of shape ``(D, n)``.
+
+    If some datasets give `v` and others do not, the missing ones get the backward
+    difference (what the model would use anyway).
+    """
+    n = max(d.t.shape[0] for d in datasets) if n is None else n
+    any_v = any(d.v is not None for d in datasets)
+    padded = []
+    for d in datasets:
+        if any_v and d.v is None:
+            d = Dataset(t=d.t, x=d.x, F=d.F, v=backward_velocity(d.t, d.x), weights=d.weights)
+        padded.append(pad(d, n))
+
+    def field(name):
+        return jnp.asarray(np.stack([getattr(d, name) for d in padded]))
+
+    return Dataset(
+        t=field("t"),
+        x=field("x"),
+        F=field("F"),
+        v=field("v") if any_v else None,
+        weights=field("weights"),
+    )
