@@ -28,6 +28,10 @@ properties pytree beside the model, never inside it.
   GMS ``Fs, Fc, Vs, delta, sigma2, C, nu_i, k_i``; LuGre ``Fs, Fc, Vs, delta, sigma0,
   sigma1, sigma2``; Tustin ``Fs, Fc, Vs, delta, sigma2``.
 
+- `initial_model(kind, t, x, F, v=None, *, n_elements=5)`: a starting model of kind
+  ``"two-state"``, ``"gms"``, ``"lugre"`` or ``"tustin"`` with scales estimated from the data
+  (force levels, presliding extent after reversals); what ``jaxfric fit`` starts from.
+
 **Parameters beside the model**
 
 - `default_props(model, free=None)`: a pytree shaped like the model's parameters holding a
@@ -103,6 +107,7 @@ from ._staged import (
     Segments as Segments,
     StagedResult as StagedResult,
 )
+from ._start import initial_model as initial_model
 from ._transforms import (
     AbstractTransform as AbstractTransform,
     Exp as Exp,

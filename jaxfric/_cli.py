@@ -36,6 +36,38 @@ def _demo(args) -> int:
     return 0
 
 
+FIT_HELP = """\
+Fit one friction model to a measurement and print its parameters with units and standard
+errors (SI: s, m, m/s, N).
+
+FILE is a CSV (header row: t, x, F; optional v, normal; units in brackets such as x[mm],
+F[mN]) or an NPZ with those arrays. F is the friction force with the sign of the velocity;
+if the file uses the opposite sign you will be warned, and --flip-force corrects it.
+The starting values are estimated from the data; all parameters are fitted jointly.
+
+examples:
+  jaxfric fit run1.csv --model two-state
+  jaxfric fit tribometer.csv --model two-state --flip-force --json fit.json --plot fit.png
+  jaxfric fit data.csv --model gms --elements 10 --units x=mm,F=mN
+"""
+
+
+def _fit(args) -> int:
+    from fitting import _cli
+
+    return _cli.run_fit(args)
+
+
+def _add_data_options(p) -> None:
+    p.add_argument("file", metavar="FILE", help="measurement: .csv (header row) or .npz")
+    p.add_argument("--units", action="append", metavar="COL=UNIT",
+                   help="units of columns without one in the header, e.g. x=mm,F=mN")
+    p.add_argument("--flip-force", action="store_true",
+                   help="multiply the force by -1 (data recorded with the opposite sign)")
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON")
+    p.add_argument("--quiet", action="store_true", help="print only errors")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="jaxfric",
@@ -52,8 +84,33 @@ def main(argv=None) -> int:
     p.add_argument("--json", help="also write the summary as JSON to this file")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=_demo)
+
+    p = sub.add_parser(
+        "fit",
+        help="fit a model to a measurement file",
+        description=FIT_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_data_options(p)
+    p.add_argument("--model", default="two-state",
+                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model to fit (default: %(default)s)")
+    p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
+    p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
+    p.set_defaults(func=_fit)
+
     args = parser.parse_args(argv)
-    return args.func(args)
+    from .data import DataError
+
+    try:
+        return args.func(args)
+    except DataError as e:
+        print(f"jaxfric {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"jaxfric {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -1,0 +1,167 @@
+"""``jaxfric fit``: fit one model to a measurement file and report the parameters."""
+
+import json
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import jax
+import numpy as np
+import optimistix as optx
+
+from jaxfric import data as _data
+
+from ._fit import fit as _fit
+from ._start import initial_model
+
+
+MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
+               "lugre": "lugre", "tustin": "tustin"}
+
+#: SI unit of each parameter name (GMS element names nu_i, k_i by prefix).
+PARAM_UNITS = {
+    "Fs": "N", "Fc": "N", "Vs": "m/s", "delta": "-", "sigma2": "N s/m", "a": "N",
+    "b": "m^-alpha", "c": "N/m^4", "alpha": "-", "beta": "m", "l1": "m/N", "C": "N/s",
+    "sigma0": "N/m", "sigma1": "N s/m", "nu": "-", "k": "N/m",
+}
+
+
+def param_unit(name: str) -> str:
+    return PARAM_UNITS.get(name, PARAM_UNITS.get(name.split("_")[0], "?"))
+
+
+def parse_units(specs) -> dict[str, str]:
+    """``["x=mm", "F=mN,t=ms"]`` -> ``{"x": "mm", "F": "mN", "t": "ms"}``."""
+    units = {}
+    for spec in specs or []:
+        for part in spec.split(","):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise _data.DataError(f"--units {part!r}: expected COLUMN=UNIT, e.g. x=mm")
+            col, unit = (s.strip() for s in part.split("=", 1))
+            units[col] = unit
+    return units
+
+
+def load_for_cli(args, log):
+    """Load `args.file` with the CLI's unit and sign options; warnings become one line on
+    stderr (unless --quiet)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _data.DataWarning)
+        m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force)
+    for w in caught:
+        if not args.quiet:
+            print(f"warning: {w.message}", file=sys.stderr)
+    for note in m.notes:
+        log(f"note: {note}")
+    return m
+
+
+def write_json_atomic(path: str, obj) -> None:
+    """Write JSON via a temporary file and a rename: never a half-written file."""
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
+    tmp.write_text(json.dumps(obj, indent=2) + "\n")
+    tmp.replace(target)
+
+
+def _progress_solver(log, every_s: float = 1.0):
+    """The default LM solver, printing step and cost at most every `every_s` seconds."""
+    last = [time.perf_counter()]
+    start = last[0]
+
+    def show(step, loss):
+        now = time.perf_counter()
+        if step > 0 and now - last[0] >= every_s:
+            last[0] = now
+            log(f"  step {int(step):4d}   cost {float(loss):.6e}   ({now - start:.0f} s)")
+
+    def verbose(**kw):
+        jax.debug.callback(show, kw["num_steps"][1], kw["loss_last_accepted_step"][1])
+
+    return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6, verbose=verbose)
+
+
+def result_json(kind: str, res, m) -> dict:
+    return {
+        "model": kind,
+        "file": str(m.source),
+        "samples": len(m),
+        "params": {k: float(v) for k, v in res.params.items()},
+        "stderr": {k: float(v) for k, v in res.stderr.items()},
+        "units": {k: param_unit(k) for k in res.params},
+        "rmse": float(res.rmse),
+        "nrmse": float(res.nrmse),
+        "r2": float(res.r2),
+        "converged": bool(res.converged),
+        "status": res.status,
+        "iterations": int(res.num_steps),
+    }
+
+
+def param_table(res) -> str:
+    lines = [f"{'parameter':>10}  {'value':>14}  {'std. error':>10}  {'rel.':>8}  unit"]
+    for name in res.names:
+        v, s = float(res.params[name]), float(res.stderr[name])
+        rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
+        lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {param_unit(name)}")
+    return "\n".join(lines)
+
+
+def plot_fit(path: str, m, res, kind: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pred = np.asarray(res.prediction)
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    ax[0].plot(m.t, m.F, lw=0.6, color="0.4", label="measured")
+    ax[0].plot(m.t, pred, lw=0.8, color="C3", label=kind)
+    ax[0].set(xlabel="t [s]", ylabel="F [N]", title="force over time")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(m.x * 1e3, m.F, lw=0.4, color="0.4", label="measured")
+    ax[1].plot(m.x * 1e3, pred, lw=0.6, color="C3", label=kind)
+    ax[1].set(xlabel="x [mm]", ylabel="F [N]", title="force vs position")
+    fig.suptitle(f"{Path(str(m.source)).name}: {kind} fit, RMSE {float(res.rmse):.3g} N")
+    fig.tight_layout()
+    tmp = Path(path).with_name(f".{Path(path).name}.tmp{os.getpid()}.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def run_fit(args) -> int:
+    log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    kind = MODEL_NAMES[args.model]
+    m = load_for_cli(args, log)
+    if m.F is None:
+        raise _data.DataError(
+            f"{m.source}: 'fit' needs the friction force F; this file has only the drive force "
+            "u (inertia and offsets included): use 'jaxfric diagnose' or subtract them first"
+        )
+    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
+        f"{np.ptp(m.x) * 1e3:.4g} mm, force {m.F.min():.4g} .. {m.F.max():.4g} N")
+    start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
+    log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
+        + " with Levenberg-Marquardt (the first step includes compilation) ...")
+    t0 = time.perf_counter()
+    res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps,
+               solver=_progress_solver(log))
+    elapsed = time.perf_counter() - t0
+    log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
+        f"RMSE {float(res.rmse):.4g} N, NRMSE {float(res.nrmse):.4g}, R2 {float(res.r2):.4f}")
+    log(param_table(res))
+    if not bool(res.converged):
+        print(f"warning: the fit did not converge ({res.status}); the values are the last "
+              "iterate", file=sys.stderr)
+    if args.json:
+        write_json_atomic(args.json, result_json(kind, res, m))
+        log(f"JSON written to {args.json}")
+    if args.plot:
+        plot_fit(args.plot, m, res, kind)
+        log(f"plot written to {args.plot}")
+    return 0

@@ -1,0 +1,137 @@
+"""The command line as a user runs it: a subprocess on good and bad files."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import jaxfric
+from jaxfric import paper
+
+
+UM = 1e-6
+
+
+def run(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "jaxfric._cli", *map(str, args)],
+        capture_output=True, text=True, cwd=cwd, timeout=600,
+    )
+
+
+def _write(path, header, columns):
+    rows = np.column_stack(columns)
+    path.write_text(header + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows))
+    return path
+
+
+def _synthetic(model, noise, seed=0, n=1500):
+    """Presliding loops and strokes at several speeds, irregularly sampled."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(2e-3, 6e-3, n))
+    x = (60 * UM * np.sin(2 * np.pi * t / 1.5) + 1.5e-3 * np.sin(2 * np.pi * t / 4.0)
+         * np.sin(2 * np.pi * t / 9.0))
+    F = np.asarray(jaxfric.simulate(model, t, x)) + noise * rng.normal(size=n)
+    return t, x, F
+
+
+@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"]])
+def test_help(cmd):
+    r = run(*cmd, "--help")
+    assert r.returncode == 0, r.stderr
+    assert "usage: jaxfric" in r.stdout
+    if cmd:
+        assert "examples:" in r.stdout
+
+
+def test_fit_tustin_json_and_units(tmp_path):
+    """Tustin data (+ 0.02 N noise) written in mm and mN: the fit recovers the parameters
+    within their standard errors, and the JSON follows the documented schema, in SI."""
+    truth = paper.tustin()
+    t, x, F = _synthetic(truth, 0.02)
+    path = _write(tmp_path / "run.csv", "t[s],x[mm],F[mN]", (t, x * 1e3, F * 1e3))
+    out = tmp_path / "fit.json"
+    r = run("fit", path, "--model", "tustin", "--json", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == ""  # --quiet
+    res = json.loads(out.read_text())
+    assert {"model", "params", "stderr", "rmse", "nrmse", "converged"} <= set(res)
+    assert res["model"] == "tustin" and res["converged"] is True
+    assert set(res["params"]) == {"Fs", "Fc", "Vs", "delta", "sigma2"}
+    assert res["units"]["sigma2"] == "N s/m"
+    # The speeds stay below Vs, so Fc, Vs, delta trade off: their errors are large but
+    # honest. Each estimate lies within 4 standard errors of the truth.
+    true = {"Fs": truth.stribeck.Fs, "Fc": truth.stribeck.Fc, "Vs": truth.stribeck.Vs,
+            "delta": truth.stribeck.delta, "sigma2": truth.sigma2}
+    for name, value in true.items():
+        err = abs(res["params"][name] - float(value))
+        assert err < 4 * res["stderr"][name], (name, err, res["stderr"][name])
+    assert res["stderr"]["Fs"] < 1e-3 * float(truth.stribeck.Fs)  # sharp: reached at v -> 0
+    assert 0.015 < res["rmse"] < 0.025  # the noise level
+
+
+def test_fit_two_state_prints_table_and_writes_plot(tmp_path):
+    truth = paper.two_state()
+    t, x, F = _synthetic(truth, 0.05, seed=1)
+    path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F))
+    r = run("fit", path, "--model", "two-state", "--json", tmp_path / "f.json",
+            "--plot", tmp_path / "f.png")
+    assert r.returncode == 0, r.stderr
+    for name in ("Fs", "Fc", "l1", "C", "alpha"):
+        assert f"\n{name:>10} " in r.stdout, name
+    assert "m/N" in r.stdout and "N/s" in r.stdout
+    res = json.loads((tmp_path / "f.json").read_text())
+    assert set(res["params"]) == {"Fs", "Fc", "Vs", "delta", "sigma2", "a", "b", "c", "alpha",
+                                  "beta", "l1", "C"}
+    assert res["rmse"] < 0.1  # noise 0.05 N; the start (estimated from data) is far worse
+    assert (tmp_path / "f.png").stat().st_size > 10_000
+
+
+def test_fit_warns_on_opposite_sign_and_flip_force_fixes_it(tmp_path):
+    t, x, F = _synthetic(paper.tustin(), 0.02, seed=2)
+    path = _write(tmp_path / "run.csv", "t,x,F", (t, x, -F))
+    r = run("fit", path, "--model", "tustin", "--json", tmp_path / "a.json")
+    assert r.returncode == 0
+    assert "warning:" in r.stderr and "--flip-force" in r.stderr
+    r = run("fit", path, "--model", "tustin", "--flip-force", "--json", tmp_path / "b.json")
+    assert r.returncode == 0 and "anti-correlated" not in r.stderr
+    assert json.loads((tmp_path / "b.json").read_text())["rmse"] < 0.025
+
+
+BAD = {
+    "missing": (None, "no such file"),
+    "empty": ("", "the file is empty"),
+    "no_header": ("0.0,0.0,0.0\n0.1,0.1,0.1\n", "no header row"),
+    "missing_column": ("t,x\n" + "\n".join(f"{i},{i}" for i in range(20)), "missing column 'F'"),
+    "non_numeric": ("t,x,F\n" + "\n".join(f"{i},{i * 1e-6},1" for i in range(5))
+                    + "\n5,oops,1\n" + "\n".join(f"{i},{i * 1e-6},1" for i in range(6, 20)),
+                    "column 'x', row 6: 'oops' is not a number"),
+    "nan": ("t,x,F\n" + "\n".join(f"{i},{i * 1e-6},{'nan' if i == 3 else 1}" for i in range(20)),
+            "column 'F', row 4"),
+    "time_duplicated": ("t,x,F\n0,0,0\n" + "\n".join(f"{i},{i * 1e-6},1" for i in range(1, 20))
+                        .replace("\n2,", "\n1,", 1), "column 't', row 3: time repeats"),
+    "too_few": ("t,x,F\n0,0,0\n1,1e-6,1\n", "only 2 samples"),
+    "no_motion": ("t,x,F\n" + "\n".join(f"{i},0.001,1" for i in range(20)), "no motion at all"),
+    "mm_as_m": ("t,x,F\n" + "\n".join(f"{i},{i * 10.0},1" for i in range(20)), "x[mm]"),
+    "absurd": ("t,x,F\n" + "\n".join(f"{i},{i * 1e-6},{5e9 if i == 7 else 1}" for i in range(20)),
+               "column 'F', row 8"),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_bad_input_one_line_error_exit_2_nothing_written(tmp_path, kind):
+    text, expected = BAD[kind]
+    path = tmp_path / f"{kind}.csv"
+    if text is not None:
+        path.write_text(text)
+    out = tmp_path / "out.json"
+    r = run("fit", path, "--model", "tustin", "--json", out)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr  # one line, no traceback
+    assert lines[0].startswith("jaxfric fit: error: ")
+    assert f"{kind}.csv" in lines[0] and expected in lines[0], lines[0]
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == ([path] if text is not None else [])
