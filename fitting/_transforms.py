@@ -64,7 +64,23 @@ class Identity(AbstractTransform):
         return jnp.where(mag > 0, mag, 1.0)
 
 
-class Exp(AbstractTransform):
+class _LowerBounded(AbstractTransform):
+    """Values above `lower`; ``ref`` defaults to ``p0 - lower``."""
+
+    lower: eqx.AbstractVar[float]
+
+    def default_ref(self, value):
+        excess = value - self.lower
+        return jnp.where(excess > 0, excess, 1.0)
+
+    def in_domain(self, value):
+        return np.isfinite(value) & (value > self.lower)
+
+    def domain(self):
+        return f"> {self.lower:g}"
+
+
+class Exp(_LowerBounded):
     """``p = lower + ref * exp(y)``: a log scale, for positive quantities spanning decades.
 
     A step in ``y`` is a relative change of ``p - lower``, whatever its unit and size, and
@@ -79,18 +95,8 @@ class Exp(AbstractTransform):
     def inverse(self, value, ref):
         return jnp.log((value - self.lower) / ref)
 
-    def default_ref(self, value):
-        excess = value - self.lower
-        return jnp.where(excess > 0, excess, 1.0)
 
-    def in_domain(self, value):
-        return np.isfinite(value) & (value > self.lower)
-
-    def domain(self):
-        return f"> {self.lower:g}"
-
-
-class Softplus(AbstractTransform):
+class Softplus(_LowerBounded):
     """``p = lower + ref * softplus(y)``: positive, but linear (not logarithmic) far from
     ``lower``; ``ref`` defaults to ``p0 - lower``."""
 
@@ -103,16 +109,6 @@ class Softplus(AbstractTransform):
         u = (value - self.lower) / ref
         # log(expm1(u)) written so that it neither overflows nor cancels.
         return u + jnp.log(-jnp.expm1(-u))
-
-    def default_ref(self, value):
-        excess = value - self.lower
-        return jnp.where(excess > 0, excess, 1.0)
-
-    def in_domain(self, value):
-        return np.isfinite(value) & (value > self.lower)
-
-    def domain(self):
-        return f"> {self.lower:g}"
 
 
 class Sigmoid(AbstractTransform):
