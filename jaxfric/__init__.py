@@ -7,6 +7,7 @@ on JAX's float64 mode (see `jaxfric._config` for why and how to opt out).
 from . import (
     _config,  # noqa: F401  (x64 policy: must run before any array is made)
     data as data,
+    effects as effects,
     paper as paper,
 )
 from ._config import x64_enabled as x64_enabled

@@ -49,6 +49,13 @@ class AbstractFrictionModel(eqx.Module):
         ``sign(v)`` (docs/algorithm.md section 1): give a `v` consistent with the motion.
         """
 
+    def __add__(self, effect):
+        """``model + effect`` (or a tuple of effects): the model with additive physical
+        effects (`jaxfric.effects`), fitted jointly by the `fitting` package."""
+        from ..effects import add_effects
+
+        return add_effects(self, effect)
+
     def _simulate(self, motion: Motion) -> SimResult:
         state = self.init_state(motion.x[0])
 

@@ -1,0 +1,286 @@
+"""Named physical effects that can be added to any friction model: ``model + effect``.
+
+Each effect is a small parameterised force term (N) computed from the motion and, for the
+effects that scale friction, from the base model's own force. ``model + effect`` returns a
+`WithEffects` model, an ordinary jaxfric model: `jaxfric.simulate`, ``jax.grad``, ``vmap``
+and the `fitting` package work on it unchanged, so the effect's parameters are fitted jointly
+with the model's.
+
+Memoryless effects (this module):
+
+| name | term (N) | parameters (SI) |
+|---|---|---|
+| `viscous` | ``c_visc * v`` | c_visc N s/m |
+| `quadratic_drag` | ``c_drag * v * abs(v)`` | c_drag N s^2/m^2 |
+| `stribeck` | ``dF_str * exp(-(v/v_str)^2) * sign(v)`` | dF_str N, v_str m/s |
+| `inertia` | ``mass * a`` | mass kg |
+| `offset` | ``offset`` | offset N |
+| `asymmetry` | ``asym * abs(F_base)`` | asym (1) |
+| `cogging` | ``cog_sin sin(2 pi x/P) + cog_cos cos(...)`` | cog_sin N, cog_cos N, P m |
+| `position_dependence` | ``F_base * (pos_1 u + pos_2 u^2)`` | pos_1, pos_2 (1) |
+| `drift` | ``F_base * drift_rate * (t - t_0)`` | drift_rate 1/s |
+
+``a`` is the backward difference of ``v`` (the same in `simulate` and `step`), ``u`` the
+position normalised to [-1, 1] over the travel given at construction, ``t_0`` the first
+sample time. Parameter names are distinct from every model's, so fitted results keep them
+apart. Stateful effects (presliding, friction lag) are not here yet.
+"""
+
+import abc
+from typing import Any, ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+from ._inputs import Motion
+from ._models._base import AbstractFrictionModel, SimResult
+from ._numerics import as_param, safe_div
+
+
+class Signals(eqx.Module):
+    """What an effect sees per sample: ``t`` (s), ``x`` (m), ``v`` (m/s), ``a`` (m/s^2),
+    ``d`` (direction of the last motion, -1/0/1), ``t0`` (first sample time, s) and
+    ``base`` (the base model's force, N)."""
+
+    t: Array
+    x: Array
+    v: Array
+    a: Array
+    d: Array
+    t0: Array
+    base: Array
+
+
+class AbstractEffect(eqx.Module):
+    """A named additive force term; see the module docstring for the library."""
+
+    name: ClassVar[str]
+
+    @abc.abstractmethod
+    def term(self, s: Signals) -> Array:
+        """The effect's force (N), elementwise in the samples of `s`."""
+
+    def describe(self) -> str:
+        """One line with the effect's parameter values and units."""
+        return self.name
+
+
+class Viscous(AbstractEffect):
+    """``c_visc * v``: extra linear damping, N s/m."""
+
+    name: ClassVar[str] = "viscous"
+    c_visc: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return self.c_visc * s.v
+
+    def describe(self):
+        return f"viscous {float(self.c_visc):.4g} N s/m"
+
+
+class QuadraticDrag(AbstractEffect):
+    """``c_drag * v * |v|``, N s^2/m^2."""
+
+    name: ClassVar[str] = "quadratic_drag"
+    c_drag: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return self.c_drag * s.v * jnp.abs(s.v)
+
+    def describe(self):
+        return f"quadratic drag {float(self.c_drag):.4g} N s^2/m^2"
+
+
+class StribeckHump(AbstractEffect):
+    """``dF_str * exp(-(v/v_str)^2) * sign(v)``: more (or less) friction at low speed."""
+
+    name: ClassVar[str] = "stribeck"
+    dF_str: Array = eqx.field(converter=as_param, default=0.0)
+    v_str: Array = eqx.field(converter=as_param, default=1e-3)
+
+    def term(self, s):
+        return self.dF_str * jnp.exp(-(safe_div(s.v, self.v_str) ** 2)) * jnp.sign(s.v)
+
+    def describe(self):
+        return (f"Stribeck hump {float(self.dF_str):.4g} N below "
+                f"{float(self.v_str) * 1e3:.3g} mm/s")
+
+
+class Inertia(AbstractEffect):
+    """``mass * a``: a force proportional to acceleration (kg): a mass not subtracted from
+    a drive force, or a mis-calibrated one."""
+
+    name: ClassVar[str] = "inertia"
+    mass: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return self.mass * s.a
+
+    def describe(self):
+        return f"inertia {float(self.mass):.4g} kg"
+
+
+class Offset(AbstractEffect):
+    """A constant force (N): gravity on an inclined axis, a sensor zero."""
+
+    name: ClassVar[str] = "offset"
+    offset: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return jnp.broadcast_to(self.offset, s.t.shape)
+
+    def describe(self):
+        return f"offset {float(self.offset):.4g} N"
+
+
+class Asymmetry(AbstractEffect):
+    """``asym * |F_base|``: friction higher by ``1 + asym`` in the positive direction and
+    lower by ``1 - asym`` in the negative one (dimensionless)."""
+
+    name: ClassVar[str] = "asymmetry"
+    asym: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return self.asym * jnp.abs(s.base)
+
+    def describe(self):
+        return f"asymmetry {100 * float(self.asym):+.3g} % (positive vs negative direction)"
+
+
+class Cogging(AbstractEffect):
+    """``cog_sin * sin(2 pi x / period) + cog_cos * cos(2 pi x / period)`` (N; period m)."""
+
+    name: ClassVar[str] = "cogging"
+    cog_sin: Array = eqx.field(converter=as_param, default=0.0)
+    cog_cos: Array = eqx.field(converter=as_param, default=0.0)
+    period: Array = eqx.field(converter=as_param, default=1e-3)
+
+    def term(self, s):
+        phase = 2 * jnp.pi * safe_div(s.x, self.period)
+        return self.cog_sin * jnp.sin(phase) + self.cog_cos * jnp.cos(phase)
+
+    def describe(self):
+        amp = float(jnp.hypot(self.cog_sin, self.cog_cos))
+        return f"cogging {amp:.4g} N amplitude, period {float(self.period) * 1e3:.4g} mm"
+
+
+class PositionDependence(AbstractEffect):
+    """``F_base * (pos_1 u + pos_2 u^2)``, ``u = (x - x_mid) / x_half`` in [-1, 1] over the
+    travel (`x_mid`, `x_half` in m, fixed at construction: `for_travel`)."""
+
+    name: ClassVar[str] = "position_dependence"
+    pos_1: Array = eqx.field(converter=as_param, default=0.0)
+    pos_2: Array = eqx.field(converter=as_param, default=0.0)
+    x_mid: float = eqx.field(static=True, default=0.0)
+    x_half: float = eqx.field(static=True, default=1.0)
+
+    @classmethod
+    def for_travel(cls, x: ArrayLike, **params) -> "PositionDependence":
+        x = jnp.asarray(x)
+        lo, hi = float(jnp.min(x)), float(jnp.max(x))
+        return cls(x_mid=0.5 * (lo + hi), x_half=max(0.5 * (hi - lo), 1e-12), **params)
+
+    def term(self, s):
+        u = (s.x - self.x_mid) / self.x_half
+        return s.base * (self.pos_1 * u + self.pos_2 * u**2)
+
+    def describe(self):
+        return (f"friction level varies along the travel by {100 * float(self.pos_1):+.3g} % "
+                f"(linear) and {100 * float(self.pos_2):+.3g} % (quadratic) at the ends")
+
+
+class Drift(AbstractEffect):
+    """``F_base * drift_rate * (t - t0)``: the friction level changing slowly over time
+    (warm-up, wear), 1/s."""
+
+    name: ClassVar[str] = "drift"
+    drift_rate: Array = eqx.field(converter=as_param, default=0.0)
+
+    def term(self, s):
+        return s.base * self.drift_rate * (s.t - s.t0)
+
+    def describe(self):
+        return f"friction level drifts by {100 * float(self.drift_rate) * 60:+.3g} % per minute"
+
+
+#: The memoryless effects by name.
+EFFECTS: dict[str, type[AbstractEffect]] = {
+    cls.name: cls
+    for cls in (Viscous, QuadraticDrag, StribeckHump, Inertia, Offset, Asymmetry, Cogging,
+                PositionDependence, Drift)
+}
+
+
+def _acceleration(v: Array, dt: Array) -> Array:
+    """Backward difference of `v` (m/s^2); 0 at the first sample."""
+    dv = jnp.diff(v, prepend=v[:1])
+    return safe_div(dv, dt)
+
+
+class WithEffectsState(eqx.Module):
+    base: Any
+    v_prev: Array
+    t: Array
+
+
+class WithEffects(AbstractFrictionModel):
+    """A friction model plus additive effects: ``force = base + sum(effect terms)``.
+
+    Built with ``model + effect`` (or ``model + (e1, e2)``); adding to a `WithEffects`
+    appends. `parts` of the full output hold the base model's parts, ``"base"`` and one
+    entry per effect name.
+    """
+
+    base: AbstractFrictionModel
+    effects: tuple[AbstractEffect, ...]
+
+    def __check_init__(self):
+        names = [e.name for e in self.effects]
+        if len(set(names)) != len(names):
+            raise ValueError(f"an effect was added twice: {names}")
+
+    def _signals(self, t, x, v, a, base, t0):
+        d = jnp.sign(v)
+        return Signals(t=t, x=x, v=v, a=a, d=d, t0=t0, base=base)
+
+    def _simulate(self, motion: Motion) -> SimResult:
+        r = self.base._simulate(motion)
+        a = _acceleration(motion.v, motion.dt)
+        s = self._signals(motion.t, motion.x, motion.v, a, r.force, motion.t[0])
+        terms = {e.name: e.term(s) for e in self.effects}
+        force = r.force + sum(terms.values())
+        return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
+                         overflow=r.overflow)
+
+    def init_state(self, x0: ArrayLike = 0.0) -> WithEffectsState:
+        base = self.base.init_state(x0)
+        zero = jnp.zeros((), jnp.asarray(x0, dtype=float).dtype)
+        return WithEffectsState(base=base, v_prev=zero, t=zero)
+
+    def step(self, state: WithEffectsState, x, v, dt):
+        base_state, f = self.base.step(state.base, x, v, dt)
+        v = jnp.asarray(v)
+        a = safe_div(v - state.v_prev, dt)
+        t = state.t + dt
+        s = self._signals(t, jnp.asarray(x), v, a, f, jnp.zeros_like(t))
+        total = f + sum(e.term(s) for e in self.effects)
+        return WithEffectsState(base=base_state, v_prev=v, t=t), total
+
+    def __add__(self, other):
+        return WithEffects(self.base, self.effects + _as_effects(other))
+
+
+def _as_effects(other) -> tuple[AbstractEffect, ...]:
+    items = other if isinstance(other, tuple | list) else (other,)
+    for e in items:
+        if not isinstance(e, AbstractEffect):
+            raise TypeError(f"can only add jaxfric effects to a model, not {type(e).__name__}")
+    return tuple(items)
+
+
+def add_effects(model: AbstractFrictionModel, other) -> WithEffects:
+    """``model + other`` (`AbstractFrictionModel.__add__` calls this)."""
+    if isinstance(model, WithEffects):
+        return model + other
+    return WithEffects(model, _as_effects(other))
