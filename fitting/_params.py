@@ -35,7 +35,7 @@ GROUPS = {
 
 # Default transforms by parameter name; anything else is `Identity` (scaled).
 _POSITIVE = ("Fs", "Fc", "Vs", "delta", "sigma0", "sigma1", "sigma2", "C", "l1", "beta",
-             "beta_rel", "k", "period", "v_str")
+             "beta_rel", "k", "period", "v_str", "F_pre", "k_pre", "tau")
 
 
 def _default_transform(name: str) -> AbstractTransform:

@@ -6,7 +6,7 @@ effects that scale friction, from the base model's own force. ``model + effect``
 and the `fitting` package work on it unchanged, so the effect's parameters are fitted jointly
 with the model's.
 
-Memoryless effects (this module):
+Memoryless effects:
 
 | name | term (N) | parameters (SI) |
 |---|---|---|
@@ -23,31 +23,37 @@ Memoryless effects (this module):
 ``a`` is the backward difference of ``v`` (the same in `simulate` and `step`), ``u`` the
 position normalised to [-1, 1] over the travel given at construction, ``t_0`` the first
 sample time. Parameter names are distinct from every model's, so fitted results keep them
-apart. Stateful effects (presliding, friction lag) are not here yet.
+apart.
+
+Stateful effects: `presliding` (an elasto-plastic element, ``F_pre`` N and ``k_pre`` N/m,
+replacing the Coulomb jump at reversals by a spring) and `friction_lag` (the force follows
+the base model's through a first-order lag: ``lag_gain`` (1), ``tau`` s).
 """
 
 import abc
 from typing import Any, ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from ._inputs import Motion
 from ._models._base import AbstractFrictionModel, SimResult
-from ._numerics import as_param, safe_div
+from ._numerics import as_param, linear_recurrence, safe_div
 
 
 class Signals(eqx.Module):
     """What an effect sees per sample: ``t`` (s), ``x`` (m), ``v`` (m/s), ``a`` (m/s^2),
-    ``d`` (direction of the last motion, -1/0/1), ``t0`` (first sample time, s) and
-    ``base`` (the base model's force, N)."""
+    ``dt`` (s) and ``dx`` (m) since the previous sample (0 at the first), ``t0`` (first
+    sample time, s) and ``base`` (the base model's force, N)."""
 
     t: Array
     x: Array
     v: Array
     a: Array
-    d: Array
+    dt: Array
+    dx: Array
     t0: Array
     base: Array
 
@@ -59,7 +65,15 @@ class AbstractEffect(eqx.Module):
 
     @abc.abstractmethod
     def term(self, s: Signals) -> Array:
-        """The effect's force (N), elementwise in the samples of `s`."""
+        """The effect's force (N) for a whole trajectory (arrays in `s`)."""
+
+    def init_state(self, x0: Array) -> Any:
+        """State of a stateful effect at the first sample (None: memoryless)."""
+        return None
+
+    def step_term(self, state: Any, s: Signals) -> tuple[Any, Array]:
+        """One sample (scalars in `s`): ``(new_state, force)``; memoryless by default."""
+        return state, self.term(s)
 
     def describe(self) -> str:
         """One line with the effect's parameter values and units."""
@@ -204,11 +218,73 @@ class Drift(AbstractEffect):
         return f"friction level drifts by {100 * float(self.drift_rate) * 60:+.3g} % per minute"
 
 
-#: The memoryless effects by name.
+class Presliding(AbstractEffect):
+    """An elasto-plastic element that replaces the Coulomb jump at reversals by a spring:
+    ``h_n = clip(h_{n-1} + k_pre * dx_n, -F_pre, F_pre)``, term ``h_n - F_pre * sign(v_n)``.
+
+    In sliding the term is 0; after a reversal it starts at ``2*F_pre`` and fades over
+    ``2*F_pre/k_pre`` of travel, so a base model that jumps by ``2*Fc`` (Tustin) gets a
+    presliding branch of stiffness `k_pre` (N/m) instead; at rest the element holds its
+    force (`F_pre` in N)."""
+
+    name: ClassVar[str] = "presliding"
+    F_pre: Array = eqx.field(converter=as_param, default=1.0)
+    k_pre: Array = eqx.field(converter=as_param, default=1e6)
+
+    def init_state(self, x0):
+        return jnp.zeros_like(x0)
+
+    def step_term(self, state, s):
+        h = jnp.clip(state + self.k_pre * s.dx, -self.F_pre, self.F_pre)
+        return h, h - self.F_pre * jnp.sign(s.v)
+
+    def term(self, s):
+        def body(h, dx):
+            h = jnp.clip(h + self.k_pre * dx, -self.F_pre, self.F_pre)
+            return h, h
+
+        _, h = jax.lax.scan(body, jnp.zeros_like(s.x[0]), s.dx)
+        return h - self.F_pre * jnp.sign(s.v)
+
+    def describe(self):
+        return (f"presliding spring {float(self.k_pre):.4g} N/m up to {float(self.F_pre):.4g} N "
+                f"({2e6 * float(self.F_pre) / float(self.k_pre):.3g} um to reverse)")
+
+
+class FrictionLag(AbstractEffect):
+    """The force follows the base model's with a first-order lag of time constant `tau`
+    (s): ``y_n = y_{n-1} + (1 - exp(-dt_n/tau)) (F_base,n - y_{n-1})``, ``y_0 = F_base,0``,
+    term ``lag_gain * (y_n - F_base,n)`` (`lag_gain` dimensionless, 1 = fully lagged)."""
+
+    name: ClassVar[str] = "friction_lag"
+    lag_gain: Array = eqx.field(converter=as_param, default=0.0)
+    tau: Array = eqx.field(converter=as_param, default=0.1)
+
+    def init_state(self, x0):
+        return (jnp.zeros_like(x0), jnp.zeros((), bool))
+
+    def step_term(self, state, s):
+        y, started = state
+        a = jnp.where(started, jnp.exp(-safe_div(s.dt, self.tau)), 0.0)
+        y = a * y + (1.0 - a) * s.base
+        return (y, jnp.ones((), bool)), self.lag_gain * (y - s.base)
+
+    def term(self, s):
+        first = jnp.arange(s.t.shape[0]) == 0
+        a = jnp.where(first, 0.0, jnp.exp(-safe_div(s.dt, self.tau)))
+        y = linear_recurrence(a, (1.0 - a) * s.base)
+        return self.lag_gain * (y - s.base)
+
+    def describe(self):
+        return (f"friction lag: {100 * float(self.lag_gain):.3g} % of the force lags with "
+                f"time constant {float(self.tau) * 1e3:.4g} ms")
+
+
+#: Every effect by name.
 EFFECTS: dict[str, type[AbstractEffect]] = {
     cls.name: cls
-    for cls in (Viscous, QuadraticDrag, StribeckHump, Inertia, Offset, Asymmetry, Cogging,
-                PositionDependence, Drift)
+    for cls in (Viscous, QuadraticDrag, StribeckHump, Presliding, FrictionLag, Inertia, Offset,
+                Asymmetry, Cogging, PositionDependence, Drift)
 }
 
 
@@ -220,6 +296,8 @@ def _acceleration(v: Array, dt: Array) -> Array:
 
 class WithEffectsState(eqx.Module):
     base: Any
+    effects: tuple
+    x_prev: Array
     v_prev: Array
     t: Array
 
@@ -240,14 +318,11 @@ class WithEffects(AbstractFrictionModel):
         if len(set(names)) != len(names):
             raise ValueError(f"an effect was added twice: {names}")
 
-    def _signals(self, t, x, v, a, base, t0):
-        d = jnp.sign(v)
-        return Signals(t=t, x=x, v=v, a=a, d=d, t0=t0, base=base)
-
     def _simulate(self, motion: Motion) -> SimResult:
         r = self.base._simulate(motion)
         a = _acceleration(motion.v, motion.dt)
-        s = self._signals(motion.t, motion.x, motion.v, a, r.force, motion.t[0])
+        s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
+                    t0=motion.t[0], base=r.force)
         terms = {e.name: e.term(s) for e in self.effects}
         force = r.force + sum(terms.values())
         return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
@@ -255,17 +330,24 @@ class WithEffects(AbstractFrictionModel):
 
     def init_state(self, x0: ArrayLike = 0.0) -> WithEffectsState:
         base = self.base.init_state(x0)
-        zero = jnp.zeros((), jnp.asarray(x0, dtype=float).dtype)
-        return WithEffectsState(base=base, v_prev=zero, t=zero)
+        x0 = jnp.asarray(x0, dtype=jnp.asarray(0.0).dtype)
+        zero = jnp.zeros_like(x0)
+        return WithEffectsState(base=base, effects=tuple(e.init_state(x0) for e in self.effects),
+                                x_prev=x0, v_prev=zero, t=zero)
 
     def step(self, state: WithEffectsState, x, v, dt):
         base_state, f = self.base.step(state.base, x, v, dt)
-        v = jnp.asarray(v)
-        a = safe_div(v - state.v_prev, dt)
+        x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         t = state.t + dt
-        s = self._signals(t, jnp.asarray(x), v, a, f, jnp.zeros_like(t))
-        total = f + sum(e.term(s) for e in self.effects)
-        return WithEffectsState(base=base_state, v_prev=v, t=t), total
+        s = Signals(t=t, x=x, v=v, a=safe_div(v - state.v_prev, dt), dt=dt,
+                    dx=x - state.x_prev, t0=jnp.zeros_like(t), base=f)
+        new, total = [], f
+        for e, st in zip(self.effects, state.effects):
+            st, term = e.step_term(st, s)
+            new.append(st)
+            total = total + term
+        return WithEffectsState(base=base_state, effects=tuple(new), x_prev=x, v_prev=v,
+                                t=t), total
 
     def __add__(self, other):
         return WithEffects(self.base, self.effects + _as_effects(other))

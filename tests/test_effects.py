@@ -24,7 +24,18 @@ def _numpy_terms(t, x, base):
     v = np.r_[0.0, np.diff(x) / np.diff(t)]
     a = np.r_[0.0, np.diff(v) / np.diff(t)]
     u = (x - 0.5 * (x.min() + x.max())) / (0.5 * (x.max() - x.min()))
+    dt = np.r_[0.0, np.diff(t)]
+    h, pre = 0.0, np.zeros(t.size)
+    y, lag = base[0], np.zeros(t.size)
+    for n in range(t.size):
+        if n:
+            h = min(max(h + 3e5 * (x[n] - x[n - 1]), -1.5), 1.5)
+            y += (1 - np.exp(-dt[n] / 0.02)) * (base[n] - y)
+        pre[n] = h - 1.5 * np.sign(v[n])
+        lag[n] = 0.3 * (y - base[n])
     return {
+        "presliding": pre,
+        "friction_lag": lag,
         "viscous": 30.0 * v,
         "quadratic_drag": 2e3 * v * np.abs(v),
         "stribeck": 2.0 * np.exp(-((v / 2e-3) ** 2)) * np.sign(v),
@@ -42,6 +53,8 @@ def _effects(x):
         "viscous": fx.Viscous(c_visc=30.0),
         "quadratic_drag": fx.QuadraticDrag(c_drag=2e3),
         "stribeck": fx.StribeckHump(dF_str=2.0, v_str=2e-3),
+        "presliding": fx.Presliding(F_pre=1.5, k_pre=3e5),
+        "friction_lag": fx.FrictionLag(lag_gain=0.3, tau=0.02),
         "inertia": fx.Inertia(mass=1.7),
         "offset": fx.Offset(offset=-0.8),
         "asymmetry": fx.Asymmetry(asym=0.05),
@@ -51,7 +64,7 @@ def _effects(x):
     }
 
 
-def test_library_has_every_memoryless_effect():
+def test_library_has_every_effect():
     assert set(fx.EFFECTS) == set(_effects(np.zeros(2)))
 
 
