@@ -82,6 +82,13 @@ recompile (see `fitting._fit`).
 """
 
 from ._data import Dataset as Dataset
+from ._diagnose import (
+    Candidate as Candidate,
+    diagnose as diagnose,
+    Diagnosis as Diagnosis,
+    regime_errors as regime_errors,
+    regimes as regimes,
+)
 from ._fit import (
     default_solver as default_solver,
     fit as fit,

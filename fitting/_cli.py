@@ -165,3 +165,107 @@ def run_fit(args) -> int:
         plot_fit(args.plot, m, res, kind)
         log(f"plot written to {args.plot}")
     return 0
+
+
+def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
+    """Figures a person reads at a glance: measured vs model over time (before/after),
+    force vs position, force vs velocity with the model's static curve, and the residual
+    against position, velocity, acceleration and time. Returns the file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t, x, F = m.t, m.x, m.F
+    v = m.velocity()
+    a = np.r_[0.0, np.diff(v) / np.diff(t)]
+    before = np.asarray(d.baseline.fit.prediction)
+    after = np.asarray(d.final.fit.prediction)
+    files = []
+
+    def save(fig, name):
+        tmp = out_dir / f".{name}.tmp{os.getpid()}.png"
+        fig.tight_layout()
+        fig.savefig(tmp, dpi=100)
+        plt.close(fig)
+        tmp.replace(out_dir / name)
+        files.append(name)
+
+    fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    ax[0].plot(t, F, lw=0.5, color="0.5", label="measured")
+    ax[0].plot(t, before, lw=0.7, color="C0", label="baseline")
+    ax[0].plot(t, after, lw=0.7, color="C3", label="after: " + (" + ".join(d.final.added) or "-"))
+    ax[0].set(ylabel="F [N]")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(t, F - before, lw=0.5, color="C0", label="baseline residual")
+    ax[1].plot(t, F - after, lw=0.5, color="C3", label="final residual")
+    ax[1].set(xlabel="t [s]", ylabel="residual [N]")
+    ax[1].legend(fontsize=8)
+    save(fig, "time.png")
+
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
+    ax[0].plot(x * 1e3, F, lw=0.4, color="0.5", label="measured")
+    ax[0].plot(x * 1e3, after, lw=0.5, color="C3", label="final model")
+    ax[0].set(xlabel="x [mm]", ylabel="F [N]", title="force vs position")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(v * 1e3, F, ".", ms=1, color="0.5", label="measured")
+    vs = np.linspace(v.min(), v.max(), 400)
+    base_model = d.final.fit.model
+    base_model = getattr(base_model, "base", base_model)
+    if hasattr(base_model, "stribeck"):
+        static = np.asarray(base_model.stribeck(vs)) + float(base_model.sigma2) * vs
+        ax[1].plot(vs * 1e3, static, color="C3", label="model s(v) + sigma2 v")
+    ax[1].set(xlabel="v [mm/s]", ylabel="F [N]", title="force vs velocity")
+    ax[1].legend(fontsize=8)
+    save(fig, "loops.png")
+
+    fig, ax = plt.subplots(2, 2, figsize=(11, 7))
+    r0, r1 = F - before, F - after
+    for axis, (xs, label) in zip(ax.flat, [(x * 1e3, "x [mm]"), (v * 1e3, "v [mm/s]"),
+                                           (a, "a [m/s^2]"), (t, "t [s]")]):
+        axis.plot(xs, r0, ".", ms=1, color="C0", label="baseline")
+        axis.plot(xs, r1, ".", ms=1, color="C3", label="final")
+        axis.set(xlabel=label, ylabel="residual [N]")
+    ax[0, 0].legend(fontsize=8, markerscale=8)
+    save(fig, "residuals.png")
+    return files
+
+
+def run_diagnose(args) -> int:
+    from ._diagnose import diagnose
+
+    log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    kind = MODEL_NAMES[args.model]
+    m = load_for_cli(args, log)
+    force, column = m.force, m.force_column
+    if column == "u":
+        log("note: the file has the drive force u (not F): the model starts as friction only; "
+            "inertia and offset are among the effects the diagnosis looks for")
+    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
+        f"{np.ptp(m.x) * 1e3:.4g} mm, force {force.min():.4g} .. {force.max():.4g} N")
+    v = m.v
+    window = args.velocity_window
+    if window is None and column == "u" and v is None:
+        window = 0.01
+        log("note: velocity from a central difference over 10 ms (--velocity-window), "
+            "because inertia makes the force depend on its derivative")
+    if window and v is None:
+        v = m.velocity(window)
+    start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
+    t0 = time.perf_counter()
+    d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
+                 log=log)
+    log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
+    if args.report:
+        out = Path(args.report)
+        from types import SimpleNamespace
+
+        files = plot_diagnosis(out, SimpleNamespace(
+            t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window)), d)
+        write_json_atomic(str(out / "diagnosis.json"), d.to_json())
+        log(f"report written to {out}/ ({', '.join(files)}, diagnosis.json)")
+    if args.json:
+        write_json_atomic(args.json, d.to_json())
+        log(f"JSON written to {args.json}")
+    return 0

@@ -41,6 +41,8 @@ _POSITIVE = ("Fs", "Fc", "Vs", "delta", "sigma0", "sigma1", "sigma2", "C", "l1",
 def _default_transform(name: str) -> AbstractTransform:
     if name in _POSITIVE:
         return Exp()
+    if name == "lag_gain":
+        return Sigmoid(0.0, 1.0)  # a fraction of the force (jaxfric.effects.FrictionLag)
     if name == "alpha":
         # Concave power law: kappa decreasing needs 0 < alpha <= 1 (paper: 0.3).
         return Sigmoid(0.0, 1.0)

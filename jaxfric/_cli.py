@@ -52,6 +52,26 @@ examples:
 """
 
 
+DIAGNOSE_HELP = """\
+Fit a model, rank the physical effects it is missing by how much of the held-out residual
+each explains, add the significant ones one at a time with a joint refit after each, and
+report the error per regime before and after (SI: s, m, m/s, N).
+
+A file with the drive force u instead of F is diagnosed from a friction-only model:
+inertia and offset are then among the effects it should find.
+
+examples:
+  jaxfric diagnose run1.csv
+  jaxfric diagnose run1.csv --model gms --elements 10 --json diag.json --report diag/
+"""
+
+
+def _diagnose(args) -> int:
+    from fitting import _cli
+
+    return _cli.run_diagnose(args)
+
+
 def _fit(args) -> int:
     from fitting import _cli
 
@@ -99,6 +119,24 @@ def main(argv=None) -> int:
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
     p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
     p.set_defaults(func=_fit)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="find the physical effects a model is missing",
+        description=DIAGNOSE_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_data_options(p)
+    p.add_argument("--model", default="two-state",
+                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model to start from (default: %(default)s)")
+    p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
+    p.add_argument("--max-steps", type=int, default=200, help="solver iterations per fit")
+    p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
+    p.add_argument("--velocity-window", type=float, metavar="S",
+                   help="velocity by central difference over S seconds (default: backward "
+                        "difference; 0.01 s for drive-force data u)")
+    p.set_defaults(func=_diagnose)
 
     args = parser.parse_args(argv)
     from .data import DataError

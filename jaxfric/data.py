@@ -89,11 +89,19 @@ class Measurement:
     def __len__(self) -> int:
         return int(self.t.size)
 
-    def velocity(self) -> np.ndarray:
-        """`v` if given, else the backward difference of `x` (``v[0] = 0``), m/s, as
-        `jaxfric.simulate` derives it."""
+    def velocity(self, window_s: float | None = None) -> np.ndarray:
+        """Velocity, m/s: `v` if given; else, with `window_s` (s), the central difference of
+        `x` over ``+-h`` samples, ``h`` = half the window in median sample steps (smooths quantised positions, as needed
+        before differentiating again for inertia); else the backward difference of `x`
+        (``v[0] = 0``), as `jaxfric.simulate` derives it."""
         if self.v is not None:
             return self.v
+        if window_s:
+            n = self.t.size
+            h = max(1, round(window_s / 2 / float(np.median(np.diff(self.t)))))
+            i = np.arange(n)
+            lo, hi = np.clip(i - h, 0, n - 1), np.clip(i + h, 0, n - 1)
+            return (self.x[hi] - self.x[lo]) / (self.t[hi] - self.t[lo])
         return np.r_[0.0, np.diff(self.x) / np.diff(self.t)]
 
     def __repr__(self) -> str:

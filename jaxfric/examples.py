@@ -45,3 +45,144 @@ def excitation(dt: float = 1e-3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]
     xs.append(pos + np.cumsum(v_var) * dt)
     x = np.concatenate(xs)
     return dt * np.arange(x.size), x
+
+
+def diagnosis_motion(dt: float = 1e-2, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A motion for diagnosing missing effects (about 5000 samples at `dt` = 10 ms): slow
+    presliding loops (+-50 and +-100 um at 40 um/s, nested), 4 mm strokes at 1..20 mm/s in
+    both directions over different parts of a 10 mm travel (so that position, speed and
+    time effects can be told apart), each ending with a slow 0.6 mm approach (0.2 mm/s) and
+    small loops at the turning point, and a varying-velocity segment. Returns ``(t, x)`` in s, m."""
+    rng = np.random.default_rng(seed)
+    um = 1e-6
+    approach = 2e-4  # m/s: each stroke ends with 0.6 mm at 0.2 mm/s, as a stage settles
+    xs = [np.zeros(20)]
+    pos = 0.0
+
+    def go(target, speed):
+        nonlocal pos
+        xs.append(_segment(pos, target, speed, dt))
+        pos = target
+
+    for amp in (100, 50):
+        jitter = rng.uniform(-5, 5)
+        go((amp + jitter) * um, 40 * um)
+        go(-0.6 * amp * um, 40 * um)
+        go(0.7 * amp * um, 40 * um)
+        go((-amp - jitter) * um, 40 * um)
+    for k, speed in enumerate(rng.permutation([1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 3e-3])):
+        lo = (k % 3) * 3e-3 + rng.uniform(0, 5e-4)
+        go(lo, 1e-2)
+        go(lo + 3.4e-3, speed)
+        go(lo + 4e-3, approach)
+        go(lo + 4e-3 - 60 * um, 40 * um)
+        go(lo + 4e-3 - 20 * um, 40 * um)
+        go(lo + 0.6e-3, speed)
+        go(lo, approach)
+    t_var = np.arange(1, int(6.0 / dt) + 1) * dt
+    v_var = 2e-3 * (1 + 0.8 * np.sin(2 * np.pi * 0.5 * t_var))
+    xs.append(pos + np.cumsum(v_var) * dt)
+    x = np.concatenate(xs)
+    return dt * np.arange(x.size), x
+
+
+#: Effects `hidden_effect_measurement` can hide; see there for sizes and fitted models.
+HIDDEN_EFFECTS = ("viscous", "quadratic_drag", "stribeck", "presliding", "friction_lag",
+                  "inertia", "offset", "asymmetry", "cogging", "position_dependence", "drift")
+
+
+def diagnosis_truth(C: float = 9.0, l1: float = 3e-6):
+    """The "true" friction of `hidden_effect_measurement`: a two-state model with a
+    `PowerShape` presliding curve (``1 - (1 - xi/l1)**2.2``, l1 m/N; 144 um of presliding
+    travel at l1 = 3 um/N) and Stribeck 24/19 N, 2.5 mm/s, delta 1.5; sigma2 50 N s/m, lag
+    attraction `C` N/s (lag time constant ``|s|/C``, about 2.2 s at 9 N/s)."""
+    from . import PowerShape, Stribeck, TwoState
+
+    return TwoState(stribeck=Stribeck(Fs=24.0, Fc=19.0, Vs=2.5e-3, delta=1.5),
+                    shape=PowerShape(l1=l1, n=2.2), sigma2=50.0, C=C)
+
+
+def hidden_effect_measurement(effect=None, magnitude: float = 1.0, seed: int = 0,
+                              noise: float = 0.05, dt: float = 1e-2):
+    """A synthetic measurement on `diagnosis_motion` whose truth is *not* the model that
+    will be fitted to it, plus hidden effect(s) at a realistic size.
+
+    The truth is `diagnosis_truth`: a two-state model whose presliding curve is a
+    `PowerShape`, which a fitted `PaperShape` two-state cannot reproduce exactly (a
+    residual floor of about 0.2 N with 0.05 N noise), so the diagnosis is tested against a
+    realistic model mismatch, not only noise. (A 100-element GMS truth would be a harder
+    mismatch: the two-state's reversal rule and lag formulation differ from GMS, leaving
+    0.36 N that `presliding`, `friction_lag` and `cogging` partly explain; a clean truth
+    must leave nothing significant, so that mismatch is the wrong baseline here.)
+
+    `effect`: ``None`` (clean), a name of `HIDDEN_EFFECTS` or a sequence of names. Sizes at
+    `magnitude` = 1 (everything scales linearly with `magnitude`, unless said otherwise):
+
+    - ``viscous``: 75 N s/m (1.5 N at 20 mm/s); note that every jaxfric model has a
+      viscous ``sigma2`` that absorbs it;
+    - ``quadratic_drag``: 3750 N s^2/m^2 (1.5 N at 20 mm/s);
+    - ``stribeck``: a hump of 2 N below 1.5 mm/s (``v_str``);
+    - ``presliding``: the truth's own presliding (fit a model without any, e.g.
+      `jaxfric.Tustin`); `magnitude` scales its travel (``l1``), and the truth's lag is made
+      fast (10 ms) so that presliding is the only dynamic effect missing from a static model;
+    - ``friction_lag``: the truth's own lag (fit a model without any, e.g. Tustin plus the
+      `presliding` effect); `magnitude` scales its time constant (``C = 9 N/s / magnitude``,
+      2.2 s at 1); the other cases keep this lag, a two-state fit has it;
+    - ``inertia``: a mass giving 1 N at the typical acceleration of the motion's velocity
+      changes (the median of ``|a|`` where it exceeds 1 % of its maximum; about 1 kg at
+      `dt` = 10 ms, as the velocity steps make ``a`` scale with ``1/dt``);
+    - ``offset``: 1 N;
+    - ``asymmetry``: 5 % (friction 5 % higher in the positive direction, lower in the
+      negative);
+    - ``cogging``: 0.7 N amplitude, period 1.7 mm;
+    - ``position_dependence``: friction level +-5 % at the ends of the travel (linear);
+    - ``drift``: friction level rising 5 % over the record.
+
+    Gaussian noise of `noise` N is added (seeded by `seed`, which also seeds the motion).
+    Returns ``(t, x, F, truth)``: times (s), positions (m), forces (N) and the true model
+    (`diagnosis_truth` plus the hidden effects as `jaxfric.effects` terms).
+    """
+    from . import effects as fx, simulate
+
+    names = () if effect is None else (effect,) if isinstance(effect, str) else tuple(effect)
+    unknown = set(names) - set(HIDDEN_EFFECTS)
+    if unknown:
+        raise ValueError(f"unknown effects {sorted(unknown)}; choose from {HIDDEN_EFFECTS}")
+    t, x = diagnosis_motion(dt=dt, seed=seed)
+    m = float(magnitude)
+    C, l1 = 9.0, 3e-6
+    if "presliding" in names:
+        C, l1 = 24.0 / 1e-2, l1 * m  # lag |s|/C = 10 ms: a static model misses presliding only
+    if "friction_lag" in names:
+        C = C / m
+    terms = []
+    for name in names:
+        if name == "viscous":
+            terms.append(fx.Viscous(c_visc=75.0 * m))
+        elif name == "quadratic_drag":
+            terms.append(fx.QuadraticDrag(c_drag=3750.0 * m))
+        elif name == "stribeck":
+            terms.append(fx.StribeckHump(dF_str=2.0 * m, v_str=1.5e-3))
+        elif name == "inertia":
+            v = np.r_[0.0, np.diff(x) / np.diff(t)]
+            a = np.abs(np.r_[0.0, np.diff(v) / np.diff(t)])
+            a_typ = float(np.median(a[a > 0.01 * a.max()]))
+            terms.append(fx.Inertia(mass=m / a_typ))
+        elif name == "offset":
+            terms.append(fx.Offset(offset=1.0 * m))
+        elif name == "asymmetry":
+            terms.append(fx.Asymmetry(asym=0.05 * m))
+        elif name == "cogging":
+            phase = 0.6  # rad
+            terms.append(fx.Cogging(cog_sin=0.7 * m * np.cos(phase),
+                                    cog_cos=0.7 * m * np.sin(phase), period=1.7e-3))
+        elif name == "position_dependence":
+            terms.append(fx.PositionDependence.for_travel(x, pos_1=0.05 * m, pos_2=0.0))
+        elif name == "drift":
+            terms.append(fx.Drift(drift_rate=0.05 * m / (t[-1] - t[0])))
+    truth = diagnosis_truth(C=C, l1=l1)
+    if terms:
+        truth = truth + tuple(terms)
+    F = np.asarray(simulate(truth, t, x))
+    F = F + noise * np.random.default_rng(seed + 12345).standard_normal(t.size)
+    return t, x, F, truth

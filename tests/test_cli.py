@@ -37,7 +37,7 @@ def _synthetic(model, noise, seed=0, n=1500):
     return t, x, F
 
 
-@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"]])
+@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"], ["diagnose"]])
 def test_help(cmd):
     r = run(*cmd, "--help")
     assert r.returncode == 0, r.stderr
@@ -135,3 +135,30 @@ def test_bad_input_one_line_error_exit_2_nothing_written(tmp_path, kind):
     assert f"{kind}.csv" in lines[0] and expected in lines[0], lines[0]
     assert not out.exists()
     assert list(tmp_path.iterdir()) == ([path] if text is not None else [])
+
+
+def test_diagnose_json_schema_and_report(tmp_path):
+    """A Tustin measurement with a hidden 1 N offset: the JSON has the documented schema,
+    the candidates are sorted by score, the offset is found and added, the error falls,
+    and the report's figures exist and are not empty."""
+    from jaxfric import effects as fx
+    from jaxfric.examples import diagnosis_motion
+
+    t, x = diagnosis_motion(dt=4e-2)
+    rng = np.random.default_rng(5)
+    F = np.asarray(jaxfric.simulate(paper.tustin() + fx.Offset(offset=1.0), t, x))
+    path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F + 0.05 * rng.normal(size=t.size)))
+    out, report = tmp_path / "d.json", tmp_path / "report"
+    r = run("diagnose", path, "--model", "tustin", "--json", out, "--report", report)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(out.read_text())
+    assert d["baseline"]["model"] == "tustin" and d["baseline"]["rmse"] > 0.5
+    scores = [c["score"] for c in d["candidates"]]
+    assert scores == sorted(scores, reverse=True)
+    assert {"effect", "score", "significant", "evidence"} <= set(d["candidates"][0])
+    assert d["candidates"][0]["effect"] == "offset" and d["candidates"][0]["significant"]
+    assert d["after"]["added"] == ["offset"]
+    assert d["after"]["rmse"] < 0.06  # the noise level, 0.05 N
+    for name in ("time.png", "loops.png", "residuals.png"):
+        assert (report / name).stat().st_size > 10_000
+    assert json.loads((report / "diagnosis.json").read_text()) == d

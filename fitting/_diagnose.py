@@ -1,0 +1,452 @@
+"""Diagnosis: where a fitted model fails, which physical effect is missing, and the error
+falling as effects are added.
+
+**Per-regime errors** (`regimes`, `compare`): RMSE overall and in presliding (within a
+travel window after a reversal), reversal windows (a time window around each reversal),
+sliding by speed band, and acceleration phases.
+
+**Ranking effects** (`diagnose`). The data are cut into `blocks` contiguous time blocks;
+every third block is held out, the rest is the training set (interleaved, so that a slow
+drift or a position dependence is seen in both). The model is fitted on the training set.
+Then, for every candidate effect of `jaxfric.effects`:
+
+1. its nonlinear parameters (cogging period, Stribeck velocity, presliding stiffness, lag
+   time constant) are searched on a grid, and for each grid point the residual of the
+   training set is regressed, by linear least squares, on the effect's columns *together
+   with* the Jacobian columns of the model's own parameters: one Gauss-Newton step of the
+   joint fit from the baseline optimum, so an effect only scores for what the model's own
+   parameters cannot absorb;
+2. the **score** is the fraction of the held-out residual sum of squares that this step
+   removes beyond the same step without the effect (a flexible term that only fits noise
+   removes nothing from held-out data);
+3. it is **significant** when the score is at least `min_score` and the held-out
+   improvement is consistent across held-out blocks (paired ``t`` statistic of the per-block
+   reductions at least `min_t`).
+
+The best significant effect is added (``model + effect``, starting from the regression's
+values), everything is refitted jointly on the training set, and the ranking repeats on the
+new residual until nothing significant is left. The held-out RMSE after each addition is
+reported, and an addition that does not lower it is undone.
+"""
+
+import dataclasses
+import itertools
+from collections.abc import Callable, Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import jaxfric
+from jaxfric import effects as fx
+
+from . import _params
+from ._fit import fit, FitResult
+
+
+# ---- regimes ---------------------------------------------------------------------------
+
+
+def _reversals(x, v):
+    d = np.sign(v)
+    idx = np.arange(d.size)
+    last = np.maximum.accumulate(np.where(d != 0, idx, 0))
+    dl = d[last]
+    rev = np.r_[False, (dl[1:] != dl[:-1]) & (dl[:-1] != 0)]
+    start = np.maximum.accumulate(np.where(rev, idx - 1, 0))
+    return rev, start
+
+
+def regimes(t, x, v=None, *, presliding_travel=None, window_s=None, speed_bands=None):
+    """Boolean masks (one per sample) of the regimes of a motion, SI units.
+
+    - ``presliding``: travel since the last reversal below `presliding_travel` (m; default
+      a tenth of the median stroke) while not at rest;
+    - ``reversal window``: within `window_s` (s; default 2 % of the record) of a reversal;
+    - ``sliding |v| < ...`` bands: outside presliding, by speed (`speed_bands`, m/s;
+      default the terciles of |v| there);
+    - ``accelerating``: outside presliding and |a| above its 80th percentile there;
+    - ``rest``: v = 0.
+    """
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    v = np.r_[0.0, np.diff(x) / np.diff(t)] if v is None else np.asarray(v, float)
+    rev, start = _reversals(x, v)
+    travel = np.abs(x - x[start])
+    if presliding_travel is None:
+        turns = np.r_[x[0], x[start[rev]], x[-1]]
+        strokes = np.abs(np.diff(turns))
+        strokes = strokes[strokes > 0]
+        presliding_travel = 0.1 * (np.median(strokes) if strokes.size else np.ptp(x))
+    moving = v != 0
+    pre = moving & (travel < presliding_travel) & (start > 0)
+    if window_s is None:
+        window_s = 0.02 * (t[-1] - t[0])
+    rev_t = t[rev]
+    if rev_t.size:
+        k = np.searchsorted(rev_t, t)
+        near = np.minimum(np.abs(t - rev_t[np.clip(k - 1, 0, rev_t.size - 1)]),
+                          np.abs(t - rev_t[np.clip(k, 0, rev_t.size - 1)]))
+        window = near <= window_s
+    else:
+        window = np.zeros(t.size, bool)
+    slide = moving & ~pre
+    speed = np.abs(v)
+    out = {"presliding": pre, "reversal window": window}
+    if slide.any():
+        if speed_bands is None:
+            speed_bands = list(np.quantile(speed[slide], [1 / 3, 2 / 3]))
+        edges = [0.0, *speed_bands, np.inf]
+        for lo, hi in itertools.pairwise(edges):
+            label = (f"sliding |v| < {hi * 1e3:.3g} mm/s" if lo == 0 else
+                     f"sliding |v| >= {lo * 1e3:.3g} mm/s" if hi == np.inf else
+                     f"sliding {lo * 1e3:.3g}-{hi * 1e3:.3g} mm/s")
+            out[label] = slide & (speed >= lo) & (speed < hi)
+        a = np.r_[0.0, np.diff(v) / np.diff(t)]
+        out["accelerating"] = slide & (np.abs(a) > np.quantile(np.abs(a[slide]), 0.8))
+    out["rest"] = ~moving
+    return out
+
+
+def regime_errors(residual, masks) -> dict[str, dict[str, float]]:
+    """``{regime: {"rmse": N, "samples": n, "share": fraction of the total SSE}}``, with
+    ``"all"`` first."""
+    r = np.asarray(residual, float)
+    total = float(np.sum(r**2)) or 1.0
+    out = {"all": {"rmse": float(np.sqrt(np.mean(r**2))), "samples": int(r.size), "share": 1.0}}
+    for name, m in masks.items():
+        if m.any():
+            out[name] = {"rmse": float(np.sqrt(np.mean(r[m] ** 2))), "samples": int(m.sum()),
+                         "share": float(np.sum(r[m] ** 2)) / total}
+    return out
+
+
+# ---- candidates ------------------------------------------------------------------------
+
+
+def _signals(t, x, v, base):
+    dt = np.r_[0.0, np.diff(t)]
+    a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
+    return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
+                      dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
+                      t0=jnp.asarray(t[0]), base=jnp.asarray(base))
+
+
+def _grid(name, t, x, v, F):
+    """Instances of effect `name` to screen: unit linear parameters, a grid over the
+    nonlinear ones (SI)."""
+    speed = np.abs(v[v != 0]) if np.any(v != 0) else np.ones(1)
+    level = float(np.median(np.abs(F))) or 1.0
+    dx = np.abs(np.diff(x))
+    dx = dx[dx > 0]
+    if name == "cogging":
+        lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
+        periods = np.geomspace(lo, np.ptp(x) / 2, 160)
+        return [fx.Cogging(cog_sin=1.0, cog_cos=1.0, period=p) for p in periods]
+    if name == "stribeck":
+        vs = np.geomspace(np.quantile(speed, 0.02), np.quantile(speed, 0.98), 24)
+        return [fx.StribeckHump(dF_str=1.0, v_str=s) for s in vs]
+    if name == "presliding":
+        dmax = np.ptp(x) / 2
+        travel = np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)  # 2*F_pre/k_pre
+        return [fx.Presliding(F_pre=level, k_pre=2 * level / d) for d in travel]
+    if name == "friction_lag":
+        span = t[-1] - t[0]
+        taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)
+        return [fx.FrictionLag(lag_gain=1.0, tau=tau) for tau in taus]
+    if name == "position_dependence":
+        return [fx.PositionDependence.for_travel(x, pos_1=1.0, pos_2=1.0)]
+    cls = fx.EFFECTS[name]
+    return [cls()]
+
+
+#: Parameters entering the term linearly (the regression's unknowns); effects not listed
+#: are scaled as a whole (one column: the term itself).
+_LINEAR = {
+    "viscous": ("c_visc",), "quadratic_drag": ("c_drag",), "stribeck": ("dF_str",),
+    "inertia": ("mass",), "offset": ("offset",), "asymmetry": ("asym",),
+    "cogging": ("cog_sin", "cog_cos"), "position_dependence": ("pos_1", "pos_2"),
+    "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
+}
+
+
+@eqx.filter_jit
+def _term(effect, s):
+    return effect.term(s)
+
+
+def _columns(effect, s):
+    """Effect term's derivative w.r.t. its linear parameters (n, q); for an effect with
+    none, the term itself (n, 1). Linear parameters are evaluated at 1."""
+    names = _LINEAR.get(effect.name)
+    if not names:
+        return np.asarray(_term(effect, s))[:, None]
+    cols = []
+    for name in names:
+        unit = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(1.0))
+        others = [n for n in names if n != name]
+        for other in others:
+            unit = eqx.tree_at(lambda e, o=other: getattr(e, o), unit, jnp.asarray(0.0))
+        cols.append(np.asarray(_term(unit, s)))
+    return np.stack(cols, axis=1)
+
+
+#: Physical ranges of linear parameters (the lag gain is a fraction of the force).
+_BOUNDS = {"friction_lag": (0.0, 1.0)}
+
+
+def _with_linear(effect, w):
+    names = _LINEAR.get(effect.name)
+    if not names:
+        if effect.name == "presliding":  # scale the element's force: F_pre * w
+            return eqx.tree_at(lambda e: e.F_pre, effect, jnp.abs(effect.F_pre * w[0]))
+        return effect
+    if effect.name in _BOUNDS:  # strictly inside, for the fit's bounded transform
+        lo, hi = _BOUNDS[effect.name]
+        w = np.clip(w, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo))
+    for name, value in zip(names, w):
+        effect = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(float(value)))
+    return effect
+
+
+# ---- the ranking -----------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class Candidate:
+    """One screened effect: `effect` (a `jaxfric.effects` instance with the regression's
+    values), `score` (fraction of the held-out residual SSE removed), `t_stat` (paired, over
+    held-out blocks), `significant`, `evidence` (plain words), `code` (how to add it)."""
+
+    name: str
+    effect: fx.AbstractEffect
+    score: float
+    t_stat: float
+    significant: bool
+    evidence: str
+    code: str
+
+    def to_json(self) -> dict:
+        return {"effect": self.name, "score": self.score, "t_stat": self.t_stat,
+                "significant": self.significant, "evidence": self.evidence, "code": self.code}
+
+
+@dataclasses.dataclass
+class Step:
+    """After adding `added` and refitting: the fit, RMSE on all data and held out (N)."""
+
+    added: list[str]
+    fit: FitResult
+    rmse: float
+    rmse_holdout: float
+    regimes: dict
+    rel_error: float = float("nan")  # rmse / RMS of the measured force
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """Outcome of `diagnose`: `baseline` and `steps` (one `Step` per added effect),
+    `rankings` (the candidate list before each step; `rankings[0]` on the baseline), the
+    held-out mask, and the final model."""
+
+    baseline: Step
+    steps: list[Step]
+    rankings: list[list[Candidate]]
+    holdout: np.ndarray
+    model: object
+    model_name: str
+
+    @property
+    def candidates(self) -> list[Candidate]:
+        return self.rankings[0]
+
+    @property
+    def final(self) -> Step:
+        return self.steps[-1] if self.steps else self.baseline
+
+    def to_json(self) -> dict:
+        return {
+            "baseline": {"model": self.model_name, "rmse": self.baseline.rmse,
+                         "rmse_holdout": self.baseline.rmse_holdout,
+                         "rel_error": self.baseline.rel_error,
+                         "regimes": self.baseline.regimes},
+            "candidates": [c.to_json() for c in self.candidates],
+            "after": {"added": self.final.added, "rmse": self.final.rmse,
+                      "rmse_holdout": self.final.rmse_holdout,
+                      "rel_error": self.final.rel_error,
+                      "regimes": self.final.regimes,
+                      "steps": [{"added": s.added, "rmse": s.rmse,
+                                 "rmse_holdout": s.rmse_holdout} for s in self.steps]},
+        }
+
+    def summary(self) -> str:
+        lines = [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
+                 f"(held out {self.baseline.rmse_holdout:.4g} N, "
+                 f"{100 * self.baseline.rel_error:.3g} % of the RMS force)", "candidate effects:"]
+        for c in self.candidates:
+            mark = "*" if c.significant else " "
+            lines.append(f" {mark} {c.name:<20} score {c.score:7.3f}  t {c.t_stat:6.1f}  "
+                         f"{c.evidence}")
+        for s in self.steps:
+            lines.append(f"+ {s.added[-1]:<20} RMSE {s.rmse:.4g} N (held out "
+                         f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
+        if not self.steps:
+            lines.append("nothing significant to add")
+        return "\n".join(lines)
+
+
+def holdout_mask(t, blocks: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Every third of `blocks` contiguous time blocks (the 3rd, 6th, ...) as a mask, and
+    the block index of every sample."""
+    t = np.asarray(t, float)
+    b = np.minimum((blocks * (t - t[0]) / (t[-1] - t[0])).astype(int), blocks - 1)
+    return (b % 3) == 2, b
+
+
+def _base_jacobian(model, t, x, v):
+    """d force / d (every parameter of `model`, natural SI values), columns normalised."""
+    p0 = _params.natural_vector(model)
+
+    def force(p):
+        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v)
+
+    J = np.asarray(jax.jacfwd(eqx.filter_jit(force))(p0))
+    J = J[:, np.all(np.isfinite(J), axis=0)]
+    norms = np.linalg.norm(J, axis=0)
+    return J[:, norms > 0] / norms[norms > 0]
+
+
+def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
+    base_model = model.base if isinstance(model, fx.WithEffects) else model
+    s = _signals(t, x, v, np.asarray(jaxfric.simulate(base_model, t, x, v)))
+    best = None
+    base_test = resid[test]
+    # The model's own parameters alone (one Gauss-Newton step): the reference.
+    coef_j, *_ = np.linalg.lstsq(J[train], resid[train], rcond=1e-10)
+    ref = resid - J @ coef_j
+    sse_base = max(float(np.sum(base_test**2)), 1e-300)
+    bounds = _BOUNDS.get(name)
+    for effect in _grid(name, t, x, v, F):
+        B = _columns(effect, s)
+        if not np.all(np.isfinite(B)) or not np.any(B[train]):
+            continue
+        scale = np.linalg.norm(B[train], axis=0)
+        scale[scale == 0] = 1.0
+        A = np.concatenate([J, B / scale], axis=1)
+        coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
+        w = coef[J.shape[1]:] / scale
+        if bounds is not None and np.any((w < bounds[0]) | (w > bounds[1])):
+            # Outside its physical range: hold it at the bound, refit the model's part.
+            w = np.clip(w, *bounds)
+            rest = resid - B @ w
+            cj, *_ = np.linalg.lstsq(J[train], rest[train], rcond=1e-10)
+            new = rest - J @ cj
+        else:
+            new = resid - A @ coef
+        # Held-out SSE removed beyond what the model's own parameters do in the same
+        # linearised step, as a fraction of the larger of the two reference SSEs (<= 1).
+        sse_new, sse_ref = float(np.sum(new[test] ** 2)), float(np.sum(ref[test] ** 2))
+        gain = (sse_ref - sse_new) / max(sse_ref, sse_base)
+        if best is None or gain > best[0]:
+            best = (gain, effect, w, new)
+    if best is None:
+        return None
+    gain, effect, w, new = best
+    per_block = np.asarray([
+        float(np.sum(ref[in_b] ** 2) - np.sum(new[in_b] ** 2))
+        for in_b in (test & (blocks == b) for b in np.unique(blocks[test]))
+    ])
+    sem = per_block.std(ddof=1) / np.sqrt(per_block.size) if per_block.size > 1 else np.inf
+    t_stat = float(per_block.mean() / sem) if sem > 0 else (np.inf if per_block.mean() > 0 else 0.0)
+    effect = _with_linear(effect, w)
+    significant = bool(gain >= min_score and t_stat >= min_t)
+    evidence = (f"{effect.describe()}; explains {100 * gain:.3g} % of the held-out residual "
+                f"variance (consistent over {per_block.size} held-out blocks: t = {t_stat:.1f})")
+    code = _code(effect)
+    return Candidate(name, effect, float(gain), t_stat, significant, evidence, code)
+
+
+def _code(effect) -> str:
+    """The one-liner that adds `effect` with its screened values."""
+    args = ", ".join(f"{f.name}={float(getattr(effect, f.name)):.4g}"
+                     for f in dataclasses.fields(effect))
+    return f"model + jaxfric.effects.{type(effect).__name__}({args})"
+
+
+def _step(model, added, t, x, v, F, train, test, masks, log, max_steps):
+    res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps)
+    resid = np.asarray(res.prediction) - F
+    return Step(
+        added=list(added), fit=res,
+        rmse=float(np.sqrt(np.mean(resid**2))),
+        rmse_holdout=float(np.sqrt(np.mean(resid[test] ** 2))),
+        regimes=regime_errors(resid, masks),
+        rel_error=float(np.sqrt(np.mean(resid**2) / np.mean(F**2))),
+    ), -resid
+
+
+def diagnose(
+    model,
+    t,
+    x,
+    F,
+    v=None,
+    *,
+    effects: Sequence[str] | None = None,
+    blocks: int = 24,
+    min_score: float = 0.05,
+    min_t: float = 3.0,
+    max_added: int = 4,
+    max_steps: int = 100,
+    model_name: str | None = None,
+    log: Callable[[str], None] | None = None,
+) -> Diagnosis:
+    """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
+    ones one at a time with a joint refit after each (see the module docstring).
+
+    `effects`: names from `jaxfric.effects.EFFECTS` to consider (default all not already in
+    the model). Returns a `Diagnosis`.
+    """
+    log = log or (lambda *_: None)
+    t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
+    v_arr = np.r_[0.0, np.diff(x) / np.diff(t)] if v is None else np.asarray(v, np.float64)
+    test, block = holdout_mask(t, blocks)
+    train = ~test
+    masks = regimes(t, x, v_arr)
+    present = {e.name for e in getattr(model, "effects", ())}
+    names = [n for n in (effects or fx.EFFECTS) if n not in present]
+    log(f"fitting the baseline model on {int(train.sum())} of {t.size} samples "
+        f"({int(test.sum())} held out in {blocks // 3} blocks) ...")
+    baseline, resid = _step(model, [], t, x, v, F, train, test, masks, log, max_steps)
+    current, added, steps, rankings = baseline.fit.model, [], [], []
+    best_holdout = baseline.rmse_holdout
+    while True:
+        J = _base_jacobian(current, t, x, v)
+        ranking = []
+        for name in names:
+            if name in added:
+                continue
+            c = _screen(name, current, t, x, v_arr, F, resid, J, train, test, block,
+                        min_score, min_t)
+            if c is not None:
+                ranking.append(c)
+        ranking.sort(key=lambda c: c.score, reverse=True)
+        rankings.append(ranking)
+        for c in ranking[:3]:
+            log(f"  {c.name}: score {c.score:.3f}, t {c.t_stat:.1f}"
+                + ("  (significant)" if c.significant else ""))
+        chosen = next((c for c in ranking if c.significant), None)
+        if chosen is None or len(added) >= max_added:
+            break
+        log(f"adding {chosen.name} and refitting ...")
+        trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x, v, F,
+                                   train, test, masks, log, max_steps)
+        if not trial.rmse_holdout < best_holdout:
+            log(f"  {chosen.name} did not lower the held-out error; not added")
+            chosen.significant = False
+            break
+        steps.append(trial)
+        added.append(chosen.name)
+        current, resid, best_holdout = trial.fit.model, trial_resid, trial.rmse_holdout
+    return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=test,
+                     model=current, model_name=model_name or type(model).__name__)
