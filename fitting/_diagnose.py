@@ -26,7 +26,8 @@ Then, for every candidate effect of `jaxfric.effects`:
 The best significant effect is added (``model + effect``, starting from the regression's
 values), everything is refitted jointly on the training set, and the ranking repeats on the
 new residual until nothing significant is left. The held-out RMSE after each addition is
-reported, and an addition that does not lower it is undone.
+reported, and an addition whose refit removes less than ``min_score/2`` of the held-out
+SSE is undone (and the search stops).
 """
 
 import dataclasses
@@ -441,8 +442,9 @@ def diagnose(
         log(f"adding {chosen.name} and refitting ...")
         trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x, v, F,
                                    train, test, masks, log, max_steps)
-        if not trial.rmse_holdout < best_holdout:
-            log(f"  {chosen.name} did not lower the held-out error; not added")
+        # The refit must remove at least half the screening threshold of held-out SSE.
+        if not trial.rmse_holdout**2 < (1.0 - 0.5 * min_score) * best_holdout**2:
+            log(f"  {chosen.name} did not lower the held-out error enough; not added")
             chosen.significant = False
             break
         steps.append(trial)
