@@ -269,3 +269,101 @@ def run_diagnose(args) -> int:
         write_json_atomic(args.json, d.to_json())
         log(f"JSON written to {args.json}")
     return 0
+
+
+def model_from_params(kind: str, params: dict):
+    """A model of `kind` with the parameter values of a ``jaxfric fit --json`` result
+    (``{"model": ..., "params": {name: SI value}}`` or just the params dict)."""
+    from jaxfric import paper
+
+    from . import _params
+
+    n = sum(1 for k in params if k.startswith("nu_"))
+    template = {"two-state": paper.two_state, "lugre": paper.lugre, "tustin": paper.tustin,
+                "gms": lambda: paper.gms(max(n, 1))}[kind]()
+    names = _params.natural_names(template)
+    missing = [k for k in names if k not in params]
+    if missing:
+        raise _data.DataError(f"parameters for a {kind} model are missing: {', '.join(missing)}")
+    vector = np.asarray([float(params[k]) for k in names])
+    return _params.from_natural_vector(jax.numpy.asarray(vector), template)
+
+
+def run_simulate(args) -> int:
+    import jaxfric
+    from jaxfric import paper
+
+    log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _data.DataWarning)
+        m = _data.load(args.file, units=parse_units(args.units), require_force=False,
+                       check_sign=False)
+    for w in caught:
+        if not args.quiet:
+            print(f"warning: {w.message}", file=sys.stderr)
+    kind = MODEL_NAMES[args.model]
+    if args.params:
+        path = Path(args.params)
+        if not path.exists():
+            raise _data.DataError(f"{path}: no such file")
+        try:
+            spec = json.loads(path.read_text())
+        except json.JSONDecodeError as e:
+            raise _data.DataError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
+        kind = MODEL_NAMES.get(spec.get("model", kind), kind)
+        model = model_from_params(kind, spec.get("params", spec))
+        log(f"model: {kind} with the parameters of {path}")
+    else:
+        model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
+                 "tustin": paper.tustin}[kind]()
+        log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
+    out = jaxfric.simulate(model, m.t, m.x, m.v, full_output=True)
+    force = np.asarray(out.force)
+    cols = {"t": m.t, "x": m.x, "v": m.velocity(), "F_model": force}
+    if m.force is not None:
+        cols[m.force_column] = m.force
+        err = force - m.force
+        log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} N")
+    target = Path(args.out)
+    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
+    header = ",".join(f"{k}[{u}]" for k, u in zip(cols, ["s", "m", "m/s", "N", "N"]))
+    np.savetxt(tmp, np.column_stack(list(cols.values())), delimiter=",", header=header,
+               comments="", fmt="%.10g")
+    tmp.replace(target)
+    log(f"{len(m)} samples written to {target} (columns {header})")
+    if int(out.overflow) > 0:
+        print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
+              "stack_size", file=sys.stderr)
+    return 0
+
+
+def run_compare(args) -> int:
+    from ._diagnose import regime_errors, regimes
+
+    log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    m = load_for_cli(args, log)
+    if m.F is None:
+        raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
+    kinds = [MODEL_NAMES.get(k.strip()) for k in args.models.split(",")]
+    if None in kinds:
+        raise _data.DataError(f"--models {args.models!r}: choose from two-state, gms, lugre, "
+                              "tustin")
+    masks = regimes(m.t, m.x, m.v)
+    rows, results = {}, {}
+    for kind in kinds:
+        log(f"fitting {kind} ...")
+        start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
+        res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps)
+        errs = regime_errors(np.asarray(res.residuals), masks)
+        rows[kind] = errs
+        results[kind] = {**result_json(kind, res, m), "regimes": errs}
+    names = list(next(iter(rows.values())))
+    log("\nRMSE per regime, N (fitted to the whole file):")
+    log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))
+    for kind, errs in rows.items():
+        log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"
+                                    for n in names))
+    if args.json:
+        write_json_atomic(args.json, {"file": str(m.source), "models": results})
+        log(f"JSON written to {args.json}")
+    return 0

@@ -66,6 +66,37 @@ examples:
 """
 
 
+SIMULATE_HELP = """\
+Simulate a model along the motion of a file (t, x and optionally v; SI or units in the
+header) and write the model force as CSV. Without --params the paper's values are used.
+
+examples:
+  jaxfric simulate motion.csv --model two-state --out forces.csv
+  jaxfric fit run1.csv --json fit.json && jaxfric simulate run2.csv --params fit.json
+"""
+
+COMPARE_HELP = """\
+Fit several models to one measurement and print their errors overall and per regime
+(presliding, reversal windows, sliding by speed, accelerating, rest).
+
+examples:
+  jaxfric compare run1.csv
+  jaxfric compare run1.csv --models two-state,gms,tustin --elements 10 --json cmp.json
+"""
+
+
+def _simulate(args) -> int:
+    from fitting import _cli
+
+    return _cli.run_simulate(args)
+
+
+def _compare(args) -> int:
+    from fitting import _cli
+
+    return _cli.run_compare(args)
+
+
 def _diagnose(args) -> int:
     from fitting import _cli
 
@@ -119,6 +150,36 @@ def main(argv=None) -> int:
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
     p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
     p.set_defaults(func=_fit)
+
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a model along a file's motion",
+        description=SIMULATE_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", metavar="FILE", help="motion: .csv (header row) or .npz")
+    p.add_argument("--units", action="append", metavar="COL=UNIT",
+                   help="units of columns without one in the header, e.g. x=mm")
+    p.add_argument("--model", default="two-state",
+                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model (default: %(default)s; the paper's values)")
+    p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
+    p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
+    p.add_argument("--quiet", action="store_true", help="print only errors")
+    p.set_defaults(func=_simulate)
+
+    p = sub.add_parser(
+        "compare",
+        help="fit several models and compare their errors per regime",
+        description=COMPARE_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_data_options(p)
+    p.add_argument("--models", default="two-state,gms,lugre,tustin",
+                   help="comma-separated (default: %(default)s)")
+    p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
+    p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    p.set_defaults(func=_compare)
 
     p = sub.add_parser(
         "diagnose",

@@ -91,9 +91,9 @@ class Measurement:
 
     def velocity(self, window_s: float | None = None) -> np.ndarray:
         """Velocity, m/s: `v` if given; else, with `window_s` (s), the central difference of
-        `x` over ``+-h`` samples, ``h`` = half the window in median sample steps (smooths quantised positions, as needed
-        before differentiating again for inertia); else the backward difference of `x`
-        (``v[0] = 0``), as `jaxfric.simulate` derives it."""
+        `x` over ``+-h`` samples, ``h`` = half the window in median sample steps (smooths
+        quantised positions, as needed before differentiating again for inertia); else the
+        backward difference of `x` (``v[0] = 0``), as `jaxfric.simulate` derives it."""
         if self.v is not None:
             return self.v
         if window_s:

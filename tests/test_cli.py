@@ -37,7 +37,7 @@ def _synthetic(model, noise, seed=0, n=1500):
     return t, x, F
 
 
-@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"], ["diagnose"]])
+@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"], ["diagnose"], ["simulate"], ["compare"]])
 def test_help(cmd):
     r = run(*cmd, "--help")
     assert r.returncode == 0, r.stderr
@@ -162,3 +162,29 @@ def test_diagnose_json_schema_and_report(tmp_path):
     for name in ("time.png", "loops.png", "residuals.png"):
         assert (report / name).stat().st_size > 10_000
     assert json.loads((report / "diagnosis.json").read_text()) == d
+
+
+def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):
+    """`simulate --params FIT.json` reproduces the fitted model's force (its RMSE is the
+    fit's), and `compare` reports every model with per-regime errors."""
+    t, x, F = _synthetic(paper.tustin(), 0.02, seed=4)
+    path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F))
+    r = run("fit", path, "--model", "tustin", "--json", tmp_path / "fit.json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    fit_rmse = json.loads((tmp_path / "fit.json").read_text())["rmse"]
+    r = run("simulate", path, "--params", tmp_path / "fit.json", "--out", tmp_path / "sim.csv")
+    assert r.returncode == 0, r.stderr
+    sim = np.genfromtxt(tmp_path / "sim.csv", delimiter=",", names=True)
+    assert sim.dtype.names == ("ts", "xm", "vms", "F_modelN", "FN")
+    np.testing.assert_allclose(sim["ts"], t)
+    rmse = float(np.sqrt(np.mean((sim["F_modelN"] - F) ** 2)))
+    assert abs(rmse - fit_rmse) < 1e-6 * fit_rmse
+    r = run("compare", path, "--models", "tustin,lugre", "--json", tmp_path / "cmp.json")
+    assert r.returncode == 0, r.stderr
+    cmp = json.loads((tmp_path / "cmp.json").read_text())["models"]
+    assert set(cmp) == {"tustin", "lugre"}
+    for res in cmp.values():
+        assert res["regimes"]["all"]["rmse"] == pytest.approx(res["rmse"], rel=1e-9)
+        assert "presliding" in res["regimes"]
+    r = run("simulate", path, "--params", tmp_path / "missing.json")
+    assert r.returncode == 2 and "missing.json: no such file" in r.stderr
