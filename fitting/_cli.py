@@ -258,13 +258,16 @@ def run_diagnose(args) -> int:
                  log=log)
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if args.report:
-        out = Path(args.report)
         from types import SimpleNamespace
 
-        files = plot_diagnosis(out, SimpleNamespace(
-            t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window)), d)
-        write_json_atomic(str(out / "diagnosis.json"), d.to_json())
-        log(f"report written to {out}/ ({', '.join(files)}, diagnosis.json)")
+        from ._report import write_report
+
+        page = write_report(
+            args.report,
+            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window)),
+            d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
+        )
+        log(f"report written to {page} (figures and diagnosis.json beside it)")
     if args.json:
         write_json_atomic(args.json, d.to_json())
         log(f"JSON written to {args.json}")

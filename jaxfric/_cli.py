@@ -11,10 +11,10 @@ DEMO_HELP = """\
 Run the built-in example end to end and write a report.
 
 The example: a seeded identification motion (slow nested presliding loops, strokes at
-0.1..20 mm/s, a varying-velocity segment); its "measured" friction comes from a
-200-element GMS discretising the paper's presliding shape, plus 0.05 N of noise. The
-paper's models (two-state, GMS-5, GMS-10, Tustin) and a LuGre model are compared with it,
-overall and per regime, and figures are written.
+1..20 mm/s over 10 mm, a varying-velocity segment) through a simulated stage whose friction
+has one hidden effect, plus 0.05 N of noise. The two-state model is fitted, the diagnosis
+ranks the missing effects on held-out data, adds the significant one and refits, and a
+report (report.html with figures and tables) is written.
 
 examples:
   jaxfric demo
@@ -32,7 +32,7 @@ def _demo(args) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(summary, indent=2))
     if not args.quiet:
-        print(f"\nreport written to {out.resolve()}/ ({elapsed:.1f} s)")
+        print(f"\nreport: {(out / 'report.html').resolve()} ({elapsed:.1f} s)")
     return 0
 
 

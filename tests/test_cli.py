@@ -188,3 +188,20 @@ def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):
         assert "presliding" in res["regimes"]
     r = run("simulate", path, "--params", tmp_path / "missing.json")
     assert r.returncode == 2 and "missing.json: no such file" in r.stderr
+
+
+def test_demo_writes_the_report(tmp_path):
+    """The newcomer's first command: the report exists, its figures are not empty, and the
+    hidden effect of the built-in data is the one found."""
+    out = tmp_path / "demo"
+    r = run("demo", "--out", out, "--json", tmp_path / "demo.json")
+    assert r.returncode == 0, r.stderr
+    assert "report: " in r.stdout and "hidden effect (cogging) found" in r.stdout
+    page = (out / "report.html").read_text()
+    for name in ("time.png", "loops.png", "residuals.png"):
+        assert (out / name).stat().st_size > 10_000
+        assert f'src="{name}"' in page
+    summary = json.loads((tmp_path / "demo.json").read_text())
+    assert summary["found"] == ["cogging"]
+    assert summary["final_rmse_N"] < 0.5 * summary["baseline_rmse_N"]
+    assert (out / "example.csv").stat().st_size > 0

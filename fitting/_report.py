@@ -1,0 +1,82 @@
+"""One HTML page with the figures and tables of a diagnosis (``jaxfric diagnose --report``,
+``jaxfric demo``)."""
+
+import html
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ._cli import param_unit, plot_diagnosis, write_json_atomic
+
+
+def _table(header, rows) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
+    )
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _params_table(res) -> str:
+    rows = []
+    for name in res.names:
+        v, s = float(res.params[name]), float(res.stderr[name])
+        rel = f"{100 * s / abs(v):.2g} %" if v != 0 and np.isfinite(s) else "-"
+        rows.append([name, f"{v:.6g}", f"{s:.3g}", rel, param_unit(name)])
+    return _table(["parameter", "value", "std. error", "relative", "unit (SI)"], rows)
+
+
+def _regimes_table(before: dict, after: dict) -> str:
+    rows = []
+    for name, b in before.items():
+        a = after.get(name, {})
+        fall = (1 - a["rmse"] / b["rmse"]) * 100 if a and b["rmse"] > 0 else float("nan")
+        rows.append([name, b["samples"], f"{b['rmse']:.4g}", f"{a.get('rmse', float('nan')):.4g}",
+                     f"{fall:.0f} %"])
+    return _table(["regime", "samples", "RMSE before [N]", "RMSE after [N]", "fall"], rows)
+
+
+def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
+    """Figures (`plot_diagnosis`), ``diagnosis.json`` and ``report.html`` in `out_dir`.
+    `m` has ``t, x, F`` and ``velocity()``; `d` is a `fitting.Diagnosis`. Returns the page."""
+    out = Path(out_dir)
+    files = plot_diagnosis(out, m, d)
+    write_json_atomic(str(out / "diagnosis.json"), d.to_json())
+    cands = [[c.name, f"{c.score:.3f}", f"{c.t_stat:.1f}", "yes" if c.significant else "no",
+              c.evidence] for c in d.candidates]
+    steps = [["baseline", f"{d.baseline.rmse:.4g}", f"{d.baseline.rmse_holdout:.4g}",
+              f"{100 * d.baseline.rel_error:.3g} %"]]
+    steps += [[f"+ {s.added[-1]}", f"{s.rmse:.4g}", f"{s.rmse_holdout:.4g}",
+               f"{100 * s.rel_error:.3g} %"] for s in d.steps]
+    code = "".join(f"<li><code>{html.escape(c.code)}</code></li>" for c in d.candidates
+                   if c.name in d.final.added)
+    parts = [
+        f"<h1>{html.escape(title)}</h1>",
+        f"<p>{intro}</p>" if intro else "",
+        "<h2>Error as effects are added</h2>",
+        _table(["model", "RMSE [N]", "held-out RMSE [N]", "relative"], steps),
+        "<h2>Candidate effects (first ranking, on the baseline's residual)</h2>",
+        "<p>score = fraction of the held-out residual variance removed; significant = score "
+        "&ge; 0.05 and consistent over held-out blocks (t &ge; 3).</p>",
+        _table(["effect", "score", "t", "significant", "evidence"], cands),
+        f"<h3>Added in code</h3><ul>{code or '<li>nothing</li>'}</ul>",
+        "<h2>Error per regime, before and after</h2>",
+        _regimes_table(d.baseline.regimes, d.final.regimes),
+        "<h2>Figures</h2>",
+        *(f'<p><img src="{f}" alt="{f}" style="max-width:100%"></p>' for f in files),
+        "<h2>Baseline parameters</h2>",
+        _params_table(d.baseline.fit),
+        "<h2>Final parameters</h2>",
+        _params_table(d.final.fit),
+    ]
+    page = ("<!doctype html><html><head><meta charset='utf-8'><title>"
+            f"{html.escape(title)}</title><style>body{{font-family:sans-serif;max-width:1100px;"
+            "margin:auto}} table{border-collapse:collapse} td,th{border:1px solid #ccc;"
+            "padding:3px 8px;text-align:right} td:first-child{text-align:left}</style></head>"
+            "<body>" + "\n".join(parts) + "</body></html>\n")
+    target = out / "report.html"
+    tmp = out / f".report.html.tmp{os.getpid()}"
+    tmp.write_text(page)
+    tmp.replace(target)
+    return target
