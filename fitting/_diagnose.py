@@ -26,8 +26,8 @@ Then, for every candidate effect of `jaxfric.effects`:
 The best significant effect is added (``model + effect``, starting from the regression's
 values), everything is refitted jointly on the training set, and the ranking repeats on the
 new residual until nothing significant is left. The held-out RMSE after each addition is
-reported, and an addition whose refit removes less than ``min_score/2`` of the held-out
-SSE is undone (and the search stops).
+reported; an addition whose refit removes less than ``min_score/2`` of the held-out SSE
+is undone and marked not significant, and the next significant candidate is tried.
 """
 
 import dataclasses
@@ -125,12 +125,13 @@ def regime_errors(residual, masks) -> dict[str, dict[str, float]]:
 # ---- candidates ------------------------------------------------------------------------
 
 
-def _signals(t, x, v, base):
+def _signals(t, x, v, base, static):
     dt = np.r_[0.0, np.diff(t)]
     a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
     return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
                       dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
-                      t0=jnp.asarray(t[0]), base=jnp.asarray(base))
+                      t0=jnp.asarray(t[0]), base=jnp.asarray(base),
+                      static=jnp.asarray(static))
 
 
 def _grid(name, t, x, v, F):
@@ -319,7 +320,9 @@ def _base_jacobian(model, t, x, v):
 
 def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
     base_model = model.base if isinstance(model, fx.WithEffects) else model
-    s = _signals(t, x, v, np.asarray(jaxfric.simulate(base_model, t, x, v)))
+    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
+    s = _signals(t, x, v, base_force,
+                 np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
     best = None
     base_test = resid[test]
     # The model's own parameters alone (one Gauss-Newton step): the reference.
@@ -436,19 +439,23 @@ def diagnose(
         for c in ranking[:3]:
             log(f"  {c.name}: score {c.score:.3f}, t {c.t_stat:.1f}"
                 + ("  (significant)" if c.significant else ""))
-        chosen = next((c for c in ranking if c.significant), None)
-        if chosen is None or len(added) >= max_added:
+        if len(added) >= max_added:
             break
-        log(f"adding {chosen.name} and refitting ...")
-        trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x, v, F,
-                                   train, test, masks, log, max_steps)
-        # The refit must remove at least half the screening threshold of held-out SSE.
-        if not trial.rmse_holdout**2 < (1.0 - 0.5 * min_score) * best_holdout**2:
+        accepted = None
+        for chosen in [c for c in ranking if c.significant]:
+            log(f"adding {chosen.name} and refitting ...")
+            trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x,
+                                       v, F, train, test, masks, log, max_steps)
+            # The refit must remove at least half the screening threshold of held-out SSE.
+            if trial.rmse_holdout**2 < (1.0 - 0.5 * min_score) * best_holdout**2:
+                accepted = chosen
+                break
             log(f"  {chosen.name} did not lower the held-out error enough; not added")
             chosen.significant = False
+        if accepted is None:
             break
         steps.append(trial)
-        added.append(chosen.name)
+        added.append(accepted.name)
         current, resid, best_holdout = trial.fit.model, trial_resid, trial.rmse_holdout
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=test,
                      model=current, model_name=model_name or type(model).__name__)

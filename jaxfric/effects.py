@@ -27,7 +27,7 @@ apart.
 
 Stateful effects: `presliding` (an elasto-plastic element, ``F_pre`` N and ``k_pre`` N/m,
 replacing the Coulomb jump at reversals by a spring) and `friction_lag` (the force follows
-the base model's through a first-order lag: ``lag_gain`` (1), ``tau`` s).
+the base model's Stribeck curve through a first-order lag: ``lag_gain`` (1), ``tau`` s).
 """
 
 import abc
@@ -46,7 +46,8 @@ from ._numerics import as_param, linear_recurrence, safe_div
 class Signals(eqx.Module):
     """What an effect sees per sample: ``t`` (s), ``x`` (m), ``v`` (m/s), ``a`` (m/s^2),
     ``dt`` (s) and ``dx`` (m) since the previous sample (0 at the first), ``t0`` (first
-    sample time, s) and ``base`` (the base model's force, N)."""
+    sample time, s), ``base`` (the base model's force, N) and ``static`` (its Stribeck curve
+    ``s(v)`` without the viscous term, N; the base force for a model without one)."""
 
     t: Array
     x: Array
@@ -56,6 +57,7 @@ class Signals(eqx.Module):
     dx: Array
     t0: Array
     base: Array
+    static: Array
 
 
 class AbstractEffect(eqx.Module):
@@ -252,9 +254,11 @@ class Presliding(AbstractEffect):
 
 
 class FrictionLag(AbstractEffect):
-    """The force follows the base model's with a first-order lag of time constant `tau`
-    (s): ``y_n = y_{n-1} + (1 - exp(-dt_n/tau)) (F_base,n - y_{n-1})``, ``y_0 = F_base,0``,
-    term ``lag_gain * (y_n - F_base,n)`` (`lag_gain` dimensionless, 1 = fully lagged)."""
+    """The friction level follows the base model's Stribeck curve ``s(v)`` with a
+    first-order lag of time constant `tau` (s): ``y_n = y_{n-1} + (1 - exp(-dt_n/tau))
+    (s_n - y_{n-1})``, ``y_0 = s_0``, term ``lag_gain * (y_n - s_n)`` (`lag_gain`
+    dimensionless, 1 = fully lagged). Only the Stribeck part lags: lagging the viscous
+    term too would act like a (negative) mass and trade off against `inertia`."""
 
     name: ClassVar[str] = "friction_lag"
     lag_gain: Array = eqx.field(converter=as_param, default=0.0)
@@ -266,14 +270,14 @@ class FrictionLag(AbstractEffect):
     def step_term(self, state, s):
         y, started = state
         a = jnp.where(started, jnp.exp(-safe_div(s.dt, self.tau)), 0.0)
-        y = a * y + (1.0 - a) * s.base
-        return (y, jnp.ones((), bool)), self.lag_gain * (y - s.base)
+        y = a * y + (1.0 - a) * s.static
+        return (y, jnp.ones((), bool)), self.lag_gain * (y - s.static)
 
     def term(self, s):
         first = jnp.arange(s.t.shape[0]) == 0
         a = jnp.where(first, 0.0, jnp.exp(-safe_div(s.dt, self.tau)))
-        y = linear_recurrence(a, (1.0 - a) * s.base)
-        return self.lag_gain * (y - s.base)
+        y = linear_recurrence(a, (1.0 - a) * s.static)
+        return self.lag_gain * (y - s.static)
 
     def describe(self):
         return (f"friction lag: {100 * float(self.lag_gain):.3g} % of the force lags with "
@@ -286,6 +290,12 @@ EFFECTS: dict[str, type[AbstractEffect]] = {
     for cls in (Viscous, QuadraticDrag, StribeckHump, Presliding, FrictionLag, Inertia, Offset,
                 Asymmetry, Cogging, PositionDependence, Drift)
 }
+
+
+def static_force(model, v: Array, force: Array) -> Array:
+    """`model`'s Stribeck curve ``s(v)`` (N) without viscous term, or `force` if it has none."""
+    stribeck = getattr(model, "stribeck", None)
+    return stribeck(v) if stribeck is not None else force
 
 
 def _acceleration(v: Array, dt: Array) -> Array:
@@ -322,7 +332,8 @@ class WithEffects(AbstractFrictionModel):
         r = self.base._simulate(motion)
         a = _acceleration(motion.v, motion.dt)
         s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
-                    t0=motion.t[0], base=r.force)
+                    t0=motion.t[0], base=r.force, static=static_force(self.base, motion.v,
+                                                                      r.force))
         terms = {e.name: e.term(s) for e in self.effects}
         force = r.force + sum(terms.values())
         return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
@@ -340,7 +351,8 @@ class WithEffects(AbstractFrictionModel):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         t = state.t + dt
         s = Signals(t=t, x=x, v=v, a=safe_div(v - state.v_prev, dt), dt=dt,
-                    dx=x - state.x_prev, t0=jnp.zeros_like(t), base=f)
+                    dx=x - state.x_prev, t0=jnp.zeros_like(t), base=f,
+                    static=static_force(self.base, v, f))
         new, total = [], f
         for e, st in zip(self.effects, state.effects):
             st, term = e.step_term(st, s)

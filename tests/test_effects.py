@@ -20,19 +20,21 @@ def _motion(n=1500, seed=0):
 
 
 def _numpy_terms(t, x, base):
-    """The module docstring's table, in NumPy, for the instances in EFFECTS below."""
+    """The module docstring's table, in NumPy, for the instances in EFFECTS below (base
+    model: the paper's two-state, whose Stribeck curve the friction lag follows)."""
     v = np.r_[0.0, np.diff(x) / np.diff(t)]
+    static = np.asarray(paper.stribeck()(v))
     a = np.r_[0.0, np.diff(v) / np.diff(t)]
     u = (x - 0.5 * (x.min() + x.max())) / (0.5 * (x.max() - x.min()))
     dt = np.r_[0.0, np.diff(t)]
     h, pre = 0.0, np.zeros(t.size)
-    y, lag = base[0], np.zeros(t.size)
+    y, lag = static[0], np.zeros(t.size)
     for n in range(t.size):
         if n:
             h = min(max(h + 3e5 * (x[n] - x[n - 1]), -1.5), 1.5)
-            y += (1 - np.exp(-dt[n] / 0.02)) * (base[n] - y)
+            y += (1 - np.exp(-dt[n] / 0.02)) * (static[n] - y)
         pre[n] = h - 1.5 * np.sign(v[n])
-        lag[n] = 0.3 * (y - base[n])
+        lag[n] = 0.3 * (y - static[n])
     return {
         "presliding": pre,
         "friction_lag": lag,
