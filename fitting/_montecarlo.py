@@ -106,6 +106,7 @@ def monte_carlo(
     solver=None,
     max_steps: int = 256,
     reparameterize: bool = True,
+    devices=None,
 ) -> MonteCarloResult:
     """Monte-Carlo sensitivity of a model along one motion, vectorised with `jax.vmap`.
 
@@ -125,6 +126,7 @@ def monte_carlo(
     - `noise_sigma`: measurement noise added before refitting, N.
     - `refit`, `free`, `props`, `solver`, `max_steps`, `reparameterize`: as for `fit`; `free`
       selects both what is perturbed and what is refitted.
+    - `devices`: shard the refits over these devices (see `fit_batch`).
 
     With ``param_sigma=0`` and ``noise_sigma > 0`` this is a parametric bootstrap: the refit
     spread should match the standard errors of a fit (`FitResult.stderr`).
@@ -148,7 +150,7 @@ def monte_carlo(
         fits = _fit.fit_batch(
             model, tile(data.t), tile(data.x), np.asarray(noisy), tile(data.v),
             free=free, props=props, solver=solver, max_steps=max_steps,
-            reparameterize=reparameterize,
+            reparameterize=reparameterize, devices=devices,
         )
         ok = np.asarray(fits.converged)
         frac = jnp.asarray(ok.mean())
