@@ -47,12 +47,22 @@ def excitation(dt: float = 1e-3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]
     return dt * np.arange(x.size), x
 
 
-def diagnosis_motion(dt: float = 1e-2, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """A motion for diagnosing missing effects (about 5000 samples at `dt` = 10 ms): slow
+def diagnosis_motion(dt: float = 1e-2, seed: int = 0, *,
+                     separable: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A motion for diagnosing missing effects (about 9700 samples at `dt` = 10 ms): slow
     presliding loops (+-50 and +-100 um at 40 um/s, nested), 4 mm strokes at 1..20 mm/s in
-    both directions over different parts of a 10 mm travel (so that position, speed and
-    time effects can be told apart), each ending with a slow 0.6 mm approach (0.2 mm/s) and
-    small loops at the turning point, and a varying-velocity segment. Returns ``(t, x)`` in s, m."""
+    both directions over different parts of a 10 mm travel, each ending with a slow 0.6 mm
+    approach (0.2 mm/s) and small loops at the turning point, and a varying-velocity
+    segment. Returns ``(t, x)`` in s, m.
+
+    By default each speed is used for one stroke cycle (out and back), at one place and one
+    time, and the varying-velocity segment comes last and runs 12 mm beyond the strokes'
+    travel: a friction level that changes with time or position is then confounded with
+    the Stribeck curve (a fitted model absorbs most of it). `separable` = True returns the
+    same kind of motion, as long, in which speed, position and time *can* be told apart:
+    the return stroke of each cycle uses another cycle's speed (so every speed is used twice,
+    in both directions, at two places and times), and the varying-velocity segment (3 s out
+    and 3 s back) sits in the middle of the record, inside the travel."""
     rng = np.random.default_rng(seed)
     um = 1e-6
     approach = 2e-4  # m/s: each stroke ends with 0.6 mm at 0.2 mm/s, as a stage settles
@@ -64,24 +74,36 @@ def diagnosis_motion(dt: float = 1e-2, seed: int = 0) -> tuple[np.ndarray, np.nd
         xs.append(_segment(pos, target, speed, dt))
         pos = target
 
+    def varying(seconds, direction):
+        nonlocal pos
+        t_var = np.arange(1, int(seconds / dt) + 1) * dt
+        v_var = 2e-3 * (1 + 0.8 * np.sin(2 * np.pi * 0.5 * t_var))
+        xs.append(pos + direction * np.cumsum(v_var) * dt)
+        pos = float(xs[-1][-1])
+
     for amp in (100, 50):
         jitter = rng.uniform(-5, 5)
         go((amp + jitter) * um, 40 * um)
         go(-0.6 * amp * um, 40 * um)
         go(0.7 * amp * um, 40 * um)
         go((-amp - jitter) * um, 40 * um)
-    for k, speed in enumerate(rng.permutation([1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 3e-3])):
+    speeds = rng.permutation([1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 3e-3])
+    for k, speed in enumerate(speeds):
         lo = (k % 3) * 3e-3 + rng.uniform(0, 5e-4)
+        if separable and k == 3:  # the varying-velocity segment, mid-record, mid-travel
+            go(1.5e-3, 1e-2)
+            varying(3.0, +1)
+            varying(3.0, -1)
+        back = speeds[(k + 2) % speeds.size] if separable else speed
         go(lo, 1e-2)
         go(lo + 3.4e-3, speed)
         go(lo + 4e-3, approach)
         go(lo + 4e-3 - 60 * um, 40 * um)
         go(lo + 4e-3 - 20 * um, 40 * um)
-        go(lo + 0.6e-3, speed)
+        go(lo + 0.6e-3, back)
         go(lo, approach)
-    t_var = np.arange(1, int(6.0 / dt) + 1) * dt
-    v_var = 2e-3 * (1 + 0.8 * np.sin(2 * np.pi * 0.5 * t_var))
-    xs.append(pos + np.cumsum(v_var) * dt)
+    if not separable:
+        varying(6.0, +1)
     x = np.concatenate(xs)
     return dt * np.arange(x.size), x
 
@@ -148,7 +170,7 @@ def hidden_effect_measurement(effect=None, magnitude: float = 1.0, seed: int = 0
     unknown = set(names) - set(HIDDEN_EFFECTS)
     if unknown:
         raise ValueError(f"unknown effects {sorted(unknown)}; choose from {HIDDEN_EFFECTS}")
-    t, x = diagnosis_motion(dt=dt, seed=seed)
+    t, x = diagnosis_motion(dt=dt, seed=seed, separable=True)
     m = float(magnitude)
     C, l1 = 9.0, 3e-6
     if "presliding" in names:
