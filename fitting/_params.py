@@ -249,25 +249,39 @@ def as_float_arrays(model):
     return jax.tree.map(conv, model)
 
 
+def two_state_part(model):
+    """``get`` with ``get(model)`` the `jaxfric.TwoState` inside `model` (the model itself,
+    or the base of a model with effects), or ``None`` if there is none."""
+    from jaxfric.effects import WithEffects
+
+    if isinstance(model, jaxfric.TwoState):
+        return lambda m: m
+    if isinstance(model, WithEffects) and isinstance(model.base, jaxfric.TwoState):
+        return lambda m: m.base
+    return None
+
+
 def to_fit_representation(model, reparameterize: bool = True):
-    """`model` with a `jaxfric.PaperShape` replaced by the equivalent
-    `NormalizedPaperShape` (when `reparameterize`); any other model unchanged.
-    Float leaves that are not arrays become arrays."""
+    """`model` with a `jaxfric.PaperShape` (of a two-state model, with or without effects)
+    replaced by the equivalent `NormalizedPaperShape` (when `reparameterize`); any other
+    model unchanged. Float leaves that are not arrays become arrays."""
     model = as_float_arrays(model)
-    if reparameterize and isinstance(model, jaxfric.TwoState) and isinstance(
-        model.shape, jaxfric.PaperShape
-    ):
-        shape = NormalizedPaperShape.from_paper(model.shape, model.stribeck.Fs)
-        return eqx.tree_at(lambda m: m.shape, model, shape)
+    get = two_state_part(model)
+    if reparameterize and get is not None and isinstance(get(model).shape, jaxfric.PaperShape):
+        two = get(model)
+        shape = NormalizedPaperShape.from_paper(two.shape, two.stribeck.Fs)
+        return eqx.tree_at(lambda m: get(m).shape, model, shape)
     return model
 
 
 def to_user_representation(model, like):
     """Undo `to_fit_representation` when `like` (the user's model) had a `PaperShape`."""
-    if isinstance(like, jaxfric.TwoState) and isinstance(like.shape, jaxfric.PaperShape) and (
-        isinstance(model.shape, NormalizedPaperShape)
-    ):
-        return eqx.tree_at(lambda m: m.shape, model, model.shape.to_paper(model.stribeck.Fs))
+    get = two_state_part(like)
+    if (get is not None and isinstance(get(like).shape, jaxfric.PaperShape)
+            and two_state_part(model) is not None
+            and isinstance(get(model).shape, NormalizedPaperShape)):
+        two = get(model)
+        return eqx.tree_at(lambda m: get(m).shape, model, two.shape.to_paper(two.stribeck.Fs))
     return model
 
 

@@ -97,14 +97,18 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
     def to_paper(self, Fs: ArrayLike) -> jaxfric.PaperShape:
         """The paper's symbols ``a, b, c, alpha, beta, l1`` (SI) for static level `Fs` (N),
         with the scale convention ``F(X) = 2*Fs``. ``a -> inf`` and ``b -> 0`` as
-        ``curvature -> 0`` (a straight power law): ``a*b`` stays finite."""
+        ``curvature -> 0`` (a straight power law): ``a*b`` stays finite. A `curvature`
+        below 1e-8 in magnitude is taken as +-1e-8 (changing ``Pi`` by about 1e-9), so that
+        ``a`` stays finite and `from_paper` can map the result back."""
         Fs = jnp.asarray(Fs)
+        curvature = jnp.where(jnp.abs(self.curvature) < 1e-8,
+                              jnp.where(self.curvature < 0, -1e-8, 1e-8), self.curvature)
         big_x = 2.0 * Fs * self.l1
         beta = self.beta_rel * big_x
         b_lo = safe_pow(beta, self.alpha)
         span = safe_pow(big_x + beta, self.alpha) - b_lo
-        b = -self.curvature / span
+        b = -curvature / span
         exp_part = 2.0 * Fs / (1.0 - self.quartic)  # a*e^{b beta^alpha}*(1 - e^{-curvature})
-        a = -exp_part / (jnp.exp(b * b_lo) * jnp.expm1(-self.curvature))
+        a = -exp_part / (jnp.exp(b * b_lo) * jnp.expm1(-curvature))
         c = self.quartic * exp_part / big_x**4
         return jaxfric.PaperShape(a=a, b=b, c=c, alpha=self.alpha, beta=beta, l1=self.l1)

@@ -173,8 +173,11 @@ def _lag_names(model) -> tuple[str, ...]:
 
 def _estimate_l1(model: jaxfric.TwoState, data: Dataset, level: float = 0.9) -> float | None:
     """``l1`` (m/N) from reversal branches: the travel after a reversal at which the force
-    has risen by `level` of ``2*Fs``, divided by what the model's shape needs for that
-    (``2*Fs*l1*u`` with ``Pi(u*l1) = level``). ``None`` if no branch gets that far."""
+    has covered `level` of the branch's whole rise, divided by what the model's shape needs
+    for that (``2*Fs*l1*u`` with ``Pi(u*l1) = level``); the median over the branches that
+    rise by at least 60 % of ``2*Fs`` (full reversals, not small inner loops). Relative
+    to each branch's own rise, so a start ``Fs`` that is too high (or friction lag, which
+    lowers the level after a reversal) does not bias it. ``None`` if no branch qualifies."""
     fs = float(model.stribeck.Fs)
     dx = np.diff(data.x)
     direction = np.sign(dx)
@@ -190,9 +193,10 @@ def _estimate_l1(model: jaxfric.TwoState, data: Dataset, level: float = 0.9) -> 
             end += 1
         rise = d * (data.F[k:end + 1] - data.F[k])
         travel = d * (data.x[k:end + 1] - data.x[k])
-        hit = np.nonzero(rise >= level * 2.0 * fs)[0]
-        if hit.size:
-            travels.append(travel[hit[0]])
+        total = float(rise.max())
+        if total < 0.6 * 2.0 * fs:
+            continue
+        travels.append(travel[np.argmax(rise >= level * total)])
     if not travels:
         return None
     grid = np.linspace(0.0, 1.0, 2001)
