@@ -254,11 +254,14 @@ class Presliding(AbstractEffect):
 
 
 class FrictionLag(AbstractEffect):
-    """The friction level follows the base model's Stribeck curve ``s(v)`` with a
-    first-order lag of time constant `tau` (s): ``y_n = y_{n-1} + (1 - exp(-dt_n/tau))
-    (s_n - y_{n-1})``, ``y_0 = s_0``, term ``lag_gain * (y_n - s_n)`` (`lag_gain`
-    dimensionless, 1 = fully lagged). Only the Stribeck part lags: lagging the viscous
-    term too would act like a (negative) mass and trade off against `inertia`."""
+    """The friction *level* follows the base model's Stribeck curve with a first-order lag
+    of time constant `tau` (s), as in Hess and Soom's friction lag: with ``m_n = |s(v_n)|``,
+    ``y_n = y_{n-1} + (1 - exp(-dt_n/tau)) (m_n - y_{n-1})`` while moving, held at rest
+    (``v_n = 0``), starting at ``m`` of the first moving sample; the term is
+    ``lag_gain * sign(v_n) * (y_n - m_n)`` (`lag_gain` dimensionless, 1 = fully lagged).
+    The direction follows the motion at once (lagging the signed force would smear every
+    reversal, which is presliding's job), and only the Stribeck part lags: lagging the
+    viscous term too would act like a (negative) mass and trade off against `inertia`."""
 
     name: ClassVar[str] = "friction_lag"
     lag_gain: Array = eqx.field(converter=as_param, default=0.0)
@@ -269,15 +272,19 @@ class FrictionLag(AbstractEffect):
 
     def step_term(self, state, s):
         y, started = state
-        a = jnp.where(started, jnp.exp(-safe_div(s.dt, self.tau)), 0.0)
-        y = a * y + (1.0 - a) * s.static
-        return (y, jnp.ones((), bool)), self.lag_gain * (y - s.static)
+        level = jnp.abs(s.static)
+        moving = s.v != 0
+        a = jnp.where(moving, jnp.where(started, jnp.exp(-safe_div(s.dt, self.tau)), 0.0), 1.0)
+        y = a * y + (1.0 - a) * level
+        return (y, started | moving), self.lag_gain * jnp.sign(s.static) * (y - level)
 
     def term(self, s):
-        first = jnp.arange(s.t.shape[0]) == 0
-        a = jnp.where(first, 0.0, jnp.exp(-safe_div(s.dt, self.tau)))
-        y = linear_recurrence(a, (1.0 - a) * s.static)
-        return self.lag_gain * (y - s.static)
+        level = jnp.abs(s.static)
+        moving = s.v != 0
+        first = moving & (jnp.cumsum(moving) == 1)  # the first moving sample starts y
+        a = jnp.where(moving, jnp.where(first, 0.0, jnp.exp(-safe_div(s.dt, self.tau))), 1.0)
+        y = linear_recurrence(a, (1.0 - a) * level)
+        return self.lag_gain * jnp.sign(s.static) * (y - level)
 
     def describe(self):
         return (f"friction lag: {100 * float(self.lag_gain):.3g} % of the force lags with "

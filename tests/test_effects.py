@@ -28,13 +28,15 @@ def _numpy_terms(t, x, base):
     u = (x - 0.5 * (x.min() + x.max())) / (0.5 * (x.max() - x.min()))
     dt = np.r_[0.0, np.diff(t)]
     h, pre = 0.0, np.zeros(t.size)
-    y, lag = static[0], np.zeros(t.size)
+    y, moved, lag = 0.0, False, np.zeros(t.size)
     for n in range(t.size):
         if n:
             h = min(max(h + 3e5 * (x[n] - x[n - 1]), -1.5), 1.5)
-            y += (1 - np.exp(-dt[n] / 0.02)) * (static[n] - y)
+        if v[n] != 0:  # the level lags while moving, is held at rest
+            y = y + (1 - np.exp(-dt[n] / 0.02)) * (abs(static[n]) - y) if moved else abs(static[n])
+            moved = True
         pre[n] = h - 1.5 * np.sign(v[n])
-        lag[n] = 0.3 * (y - static[n])
+        lag[n] = 0.3 * np.sign(static[n]) * (y - abs(static[n]))
     return {
         "presliding": pre,
         "friction_lag": lag,
