@@ -192,7 +192,7 @@ def main(argv=None) -> int:
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model to start from (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
-    p.add_argument("--max-steps", type=int, default=200, help="solver iterations per fit")
+    p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
     p.add_argument("--velocity-window", type=float, metavar="S",
                    help="velocity by central difference over S seconds (default: backward "
