@@ -1,0 +1,155 @@
+"""Acceptance tests of the diagnosis on data with a hidden effect (issue 5).
+
+The data come from `jaxfric.examples.hidden_effect_measurement`: the separable diagnosis
+motion (slow nested presliding loops, strokes at six speeds in both directions over
+different parts of the travel, a varying-velocity segment mid-record) through a "true"
+friction that is *not* the fitted model (a two-state model with a `PowerShape` presliding
+curve, which the fitted `PaperShape` cannot reproduce exactly), plus hidden effect(s) and
+0.05 N of noise.
+
+For every effect of the library the tests assert that the hidden effect is ranked first and
+significant, that adding it lowers the RMSE by at least 40 %, that the final RMSE is near
+the floor, and that nothing else stays significant. "Near the floor": within 15 % of the
+RMSE the same baseline reaches on the same motion and noise with *no* hidden effect (noise
+plus the model mismatch, 0.09 N for 0.05 N of noise), which is itself checked to be under
+twice the noise. Clean data: nothing significant. Two hidden effects: both found.
+
+The default run checks the clean case, one effect and one pair; ``pytest -m slow`` runs every
+effect at two seeds and two magnitudes, more pairs, and the real EMPS data. Six of the 22
+single-effect cases do not pass yet; they are listed, with what goes wrong, in
+`KNOWN_FAILURES` (strict xfail).
+"""
+
+import functools
+import pathlib
+
+import equinox as eqx
+import pytest
+
+import fitting
+from jaxfric.examples import hidden_effect_measurement, HIDDEN_EFFECTS
+
+
+NOISE = 0.05  # N, hidden_effect_measurement's default
+DT = 0.02  # s: 4866 samples, enough for every effect and twice as fast as 10 ms
+DATA = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def baseline(names, t, x, F):
+    """The model a user would start from, lacking the hidden effect(s): a two-state model
+    from `fitting.initial_model`, except where the two-state model contains the effect
+    itself: for ``presliding`` a Tustin model (static); for ``friction_lag`` the two-state
+    model with its lag made instantaneous (``C`` held at 1e6 N/s: a lag time of 24 us);
+    for ``viscous`` the two-state model with its viscous coefficient held at 0.
+    Returns ``(model, fixed)``."""
+    if "presliding" in names:
+        return fitting.initial_model("tustin", t, x, F), ()
+    model = fitting.initial_model("two-state", t, x, F)
+    if "friction_lag" in names:
+        return eqx.tree_at(lambda m: m.C, model, 1e6), ("C",)
+    if "viscous" in names:
+        return eqx.tree_at(lambda m: m.sigma2, model, 0.0), ("sigma2",)
+    return model, ()
+
+
+@functools.cache
+def run(names: tuple[str, ...], seed: int = 0, magnitude: float = 1.0):
+    t, x, F, _ = hidden_effect_measurement(names or None, magnitude=magnitude, seed=seed,
+                                           dt=DT)
+    model, fixed = baseline(names, t, x, F)
+    return fitting.diagnose(model, t, x, F, fixed=fixed)
+
+
+def assert_found(names, seed=0, magnitude=1.0):
+    d = run(tuple(names), seed, magnitude)
+    first = d.rankings[0][0]
+    report = d.summary()
+    assert first.name in names, report
+    assert first.significant, report
+    assert sorted(d.final.added) == sorted(names), report
+    assert not any(c.significant for c in d.rankings[-1]), report  # nothing else left
+    assert d.final.rmse <= 0.6 * d.baseline.rmse, report
+    clean = run((), seed).baseline.rmse
+    assert clean < 2.0 * NOISE
+    assert d.final.rmse <= 1.15 * clean, (d.final.rmse, clean, report)
+    return d
+
+
+def test_clean_data_nothing_significant():
+    d = run(())
+    assert d.final.added == []
+    assert not any(c.significant for c in d.rankings[0]), d.summary()
+    assert d.baseline.rmse < 2.0 * NOISE  # the fitted model reaches noise + a small mismatch
+
+
+def test_hidden_cogging_found_added_and_error_falls():
+    d = assert_found(["cogging"])
+    c = d.rankings[0][0]
+    # The evidence names the period (1.7 mm hidden) in plain words, and the code line adds it.
+    assert "period" in c.evidence and "held-out" in c.evidence
+    period = float(d.model.effects[0].period)
+    assert abs(period / 1.7e-3 - 1.0) < 0.02
+    assert c.code.startswith("model + jaxfric.effects.Cogging(")
+
+
+def test_two_hidden_effects_both_found():
+    assert_found(["offset", "inertia"])
+
+
+#: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
+#: Strict: when one starts to pass, the test fails until it is taken off this list.
+KNOWN_FAILURES = {
+    ("presliding", 0, 1.0): "the refit of Tustin + presliding from the screen's start "
+    "stops at 1.2 N (a direct fit reaches the noise); a Stribeck hump is then added too",
+    ("presliding", 1, 2.0): "as for seed 0: refit stuck at 1.2 N, Stribeck hump added",
+    ("stribeck", 1, 2.0): "the baseline fit stops far from its optimum (0.72 N); the "
+    "hump is ranked first but not consistent, and friction_lag is added instead",
+    ("friction_lag", 1, 2.0): "found and added, but the refit ends at 0.137 N, above "
+    "1.15 x the clean floor (0.104 N)",
+    ("position_dependence", 1, 2.0): "found and added, but the refit ends at 0.173 N, "
+    "above 1.15 x the clean floor (0.104 N)",
+    ("drift", 1, 2.0): "ranked first (score 0.86) but not consistent across blocks "
+    "(t = 0.8), and the refit does not confirm it",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed, magnitude", [(0, 1.0), (1, 2.0)])
+@pytest.mark.parametrize("name", HIDDEN_EFFECTS)
+def test_every_hidden_effect_is_found(name, seed, magnitude, request):
+    reason = KNOWN_FAILURES.get((name, seed, magnitude))
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    assert_found([name], seed, magnitude)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_clean_data_nothing_significant_other_seeds(seed):
+    d = run((), seed)
+    assert d.final.added == [] and not any(c.significant for c in d.rankings[0]), d.summary()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("names", [("cogging", "inertia"), ("quadratic_drag", "offset")])
+def test_pairs_of_hidden_effects(names):
+    assert_found(list(names), seed=3)
+
+
+@pytest.mark.slow
+def test_emps_friction_only_model_finds_inertia_and_error_falls():
+    path = DATA / "emps_estimation.csv"
+    if not path.exists():
+        pytest.skip(f"{path} not present")
+    from jaxfric import data as jdata
+
+    m = jdata.load(path)
+    assert m.force_column == "u"  # the drive force: friction + inertia + offset
+    v = m.velocity(0.01)  # as `jaxfric diagnose` does for drive-force data
+    model = fitting.initial_model("two-state", m.t, m.x, m.force, v)
+    d = fitting.diagnose(model, m.t, m.x, m.force, v)
+    assert d.rankings[0][0].name == "inertia", d.summary()
+    assert "inertia" in d.final.added
+    # The published inverse model reaches about 4 % relative error on this record.
+    assert d.final.rel_error < 0.06, d.summary()
+    assert d.final.rmse < 0.2 * d.baseline.rmse
