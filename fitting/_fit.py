@@ -212,9 +212,12 @@ def _remaining_step(jac, resid, mask, n_obs):
     point: ``sqrt(z2)`` with ``z2 = dy^T (J^T J / s^2) dy = |J dy|^2 / s^2`` for the step
     ``dy`` over the free coordinates and ``s^2 = RSS/n_obs``."""
     jf = jnp.where(mask[None, :], jac, 0.0)
-    dy = jnp.linalg.lstsq(jf, resid, rcond=1e-12)[0]
-    rss = jnp.sum(resid**2)
-    z2 = jnp.sum((jf @ dy) ** 2) / jnp.maximum(rss / n_obs, 1e-300)
+    # |J dy|^2 is the squared projection of the residual onto the column space of J: from
+    # the thin SVD (n x p, never n x n), over the singular values that are not zero.
+    u, sv, _ = jnp.linalg.svd(jf, full_matrices=False)
+    keep = sv > 1e-10 * jnp.max(sv)
+    projected = jnp.sum(jnp.where(keep, u.T @ resid, 0.0) ** 2)
+    z2 = projected / jnp.maximum(jnp.sum(resid**2) / n_obs, 1e-300)
     return jnp.sqrt(z2)
 
 

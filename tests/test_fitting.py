@@ -343,3 +343,27 @@ def test_max_steps_is_reported_not_raised():
     assert res.status == "nonlinear_max_steps_reached"
     assert not bool(res.converged)
     assert int(res.num_steps) == 2
+
+
+def test_remaining_step_memory_is_linear_in_samples():
+    # The convergence check runs on the final Jacobian of every fit: a full SVD of a
+    # (n, p) Jacobian would need n*n*8 bytes (80 GB at n = 1e5). Compile it for n = 1e5
+    # and check that XLA plans memory of order n*p, not n*n.
+    from fitting._fit import _remaining_step
+
+    n, p = 100_000, 12
+    args = (jax.ShapeDtypeStruct((n, p), jnp.float64), jax.ShapeDtypeStruct((n,), jnp.float64),
+            jax.ShapeDtypeStruct((p,), bool), jax.ShapeDtypeStruct((), jnp.float64))
+    mem = jax.jit(_remaining_step).lower(*args).compile().memory_analysis()
+    assert mem.temp_size_in_bytes < 50 * n * p * 8  # 480 MB; n*n*8 would be 80 GB
+    # And it measures the step: a residual in the column space is a long way off (with
+    # s^2 = RSS/n taken from that same residual, z reaches its ceiling sqrt(n)), one
+    # orthogonal to it is at the optimum.
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(500, 3))
+    mask = jnp.asarray([True, True, True])
+    inside = J @ np.array([1.0, -2.0, 0.5]) + 1e-3 * rng.normal(size=500)
+    ortho = rng.normal(size=500)
+    ortho -= J @ np.linalg.lstsq(J, ortho, rcond=None)[0]
+    assert float(_remaining_step(J, inside, mask, 500.0)) > 0.99 * np.sqrt(500)
+    assert float(_remaining_step(J, ortho, mask, 500.0)) < 1e-6
