@@ -201,7 +201,10 @@ def _covariance(jac, resid, mask, n_obs):
     dof = jnp.maximum(n_obs - n_free, 1.0)
     s2 = jnp.sum(resid**2) / dof
     cov = s2 * inv / jnp.outer(norms, norms) * jnp.outer(mask, mask)
-    sv = jnp.linalg.svd(jn, compute_uv=False)  # descending; the fixed columns give zeros
+    # Singular values (descending; the fixed columns give zeros) of the p x p factor R of
+    # jn = QR, which are those of jn: on the CPU, `svd(jn, compute_uv=False)` allocates an
+    # n x n buffer (80 GB at n = 1e5).
+    sv = jnp.linalg.svd(jnp.linalg.qr(jn, mode="r"), compute_uv=False)
     k = jnp.maximum(n_free.astype(jnp.int32) - 1, 0)
     cond = jnp.where(n_free > 0, sv[0] / sv[k], 1.0)
     return cov, cond

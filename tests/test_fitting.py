@@ -345,6 +345,23 @@ def test_max_steps_is_reported_not_raised():
     assert int(res.num_steps) == 2
 
 
+def test_fit_memory_is_linear_in_samples():
+    # A whole two-state fit compiled for 1e5 samples: XLA's memory plan must be of order
+    # n*p (a few hundred MB), not n*n (80 GB), which an SVD of the (n, p) Jacobian without
+    # vectors once asked for.
+    from fitting import _fit
+    from fitting._data import check_dataset, Dataset, stack
+
+    n = 100_000
+    t = np.arange(n) * 1e-3
+    x = 1e-3 * np.sin(2 * np.pi * t / 5)
+    problem, y0 = _fit._problem(true_two_state(), None, None, True)
+    data = stack([check_dataset(Dataset(t=t, x=x, F=np.zeros(n)))])
+    compiled = eqx.filter_jit(_fit._solve_impl).lower(
+        problem, y0, data, _fit.default_solver(), 1).compile()
+    assert compiled.compiled.memory_analysis().temp_size_in_bytes < 4e9
+
+
 def test_remaining_step_memory_is_linear_in_samples():
     # The convergence check runs on the final Jacobian of every fit: a full SVD of a
     # (n, p) Jacobian would need n*n*8 bytes (80 GB at n = 1e5). Compile it for n = 1e5
