@@ -236,7 +236,8 @@ def render(d: dict, json_name: str, notes_file: str | None = None) -> str:
                       "that the script works, not how fast jaxfric is."]
     parts += ["", "## Reproduce", "", "```bash",
               d.get("command", "python benchmarks/throughput.py --json OUT.json"),
-              f"python benchmarks/make_benchmarks_md.py {json_name}", "```", "",
+              f"python benchmarks/make_benchmarks_md.py {json_name}"
+              + (f" --notes {notes_file}" if notes_file else ""), "```", "",
               f"Repeats: {d['config']['repeats']}. Sizes: {json.dumps(d['config'])}.", "",
               "## Machine", "", section_machine(d), "",
               "## Goals (issue 7)", "", section_goals(d), "",
