@@ -21,11 +21,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import effects as fx
-from ._models.two_state import TwoState
-from ._shapes import PowerShape
 from ._simulate import simulate
-from ._stribeck import Stribeck
-from .examples import diagnosis_motion
+from .examples import diagnosis_motion, diagnosis_truth
 
 
 NOISE_N = 0.05
@@ -35,8 +32,7 @@ HIDDEN = "cogging"
 def example_measurement(seed: int = 0, dt: float = 2e-2):
     """``(t, x, F, truth)`` in s, m, N: see the module docstring."""
     t, x = diagnosis_motion(dt=dt, seed=seed)
-    stage = TwoState(stribeck=Stribeck(Fs=24.0, Fc=19.0, Vs=2.5e-3, delta=1.5),
-                     shape=PowerShape(l1=3e-6, n=2.2), sigma2=50.0, C=9.0)
+    stage = diagnosis_truth()  # PowerShape presliding, Stribeck 24/19 N, sigma2 50, C 9
     truth = stage + fx.Cogging(cog_sin=0.6, cog_cos=0.3, period=1.7e-3)
     rng = np.random.default_rng(seed)
     F = np.asarray(simulate(truth, t, x)) + rng.normal(0.0, NOISE_N, t.size)
