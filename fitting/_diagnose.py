@@ -27,8 +27,10 @@ Then, for every candidate effect of `jaxfric.effects`:
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
-values), everything is refitted jointly on the training set, and the ranking repeats on the
-new residual until nothing significant is left. The held-out RMSE after each addition is
+values), everything is refitted jointly on the training set (twice: from the fitted model,
+and from the starting model with the effects, which is not bent by the missing effect; the
+better training fit is kept, and a fit that stops at its step limit is restarted once), and
+the ranking repeats on the new residual until nothing significant is left. The held-out RMSE after each addition is
 reported; an addition whose refit removes less than ``min_score/2`` of the held-out SSE
 is undone and marked not significant, and the next significant candidate is tried. When
 nothing is significant but the best score is at least ``4*min_score`` (a large effect
@@ -543,6 +545,16 @@ def diagnose(
             trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x,
                                        v, F, train, test, masks, log, max_steps, fixed,
                                        restart=True)
+            # The fitted model can sit where it compensated for the missing effect (a
+            # distorted Stribeck curve, say), a poor start for the refit: also refit from
+            # the starting model with the effects, and keep the better training fit.
+            effects = tuple(getattr(current, "effects", ()))
+            plain = model.base if isinstance(model, fx.WithEffects) else model
+            fresh, fresh_resid = _step(plain + (*effects, chosen.effect),
+                                       [*added, chosen.name], t, x, v, F, train, test, masks,
+                                       log, max_steps, fixed, restart=True)
+            if float(fresh.fit.rmse) < float(trial.fit.rmse):
+                trial, trial_resid = fresh, fresh_resid
             # The refit must remove at least half the screening threshold of held-out SSE,
             # and an effect not yet shown consistent must now be so, block by block.
             enough = trial.rmse_holdout**2 < (1.0 - 0.5 * min_score) * best_holdout**2

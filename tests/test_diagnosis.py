@@ -15,8 +15,8 @@ plus the model mismatch, 0.09 N for 0.05 N of noise), which is itself checked to
 twice the noise. Clean data: nothing significant. Two hidden effects: both found.
 
 The default run checks the clean case, one effect and one pair; ``pytest -m slow`` runs every
-effect at two seeds and two magnitudes, more pairs, and the real EMPS data. Six of the 22
-single-effect cases do not pass yet; they are listed, with what goes wrong, in
+effect at two seeds and two magnitudes, more pairs, and the real EMPS data. One of the 22
+single-effect cases does not pass yet; it is listed, with what goes wrong, in
 `KNOWN_FAILURES` (strict xfail).
 """
 
@@ -99,17 +99,15 @@ def test_two_hidden_effects_both_found():
 #: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
 #: Strict: when one starts to pass, the test fails until it is taken off this list.
 KNOWN_FAILURES = {
-    ("presliding", 0, 1.0): "the refit of Tustin + presliding from the screen's start "
-    "stops at 1.2 N (a direct fit reaches the noise); a Stribeck hump is then added too",
-    ("presliding", 1, 2.0): "as for seed 0: refit stuck at 1.2 N, Stribeck hump added",
-    ("stribeck", 1, 2.0): "the baseline fit stops far from its optimum (0.72 N); the "
-    "hump is ranked first but not consistent, and friction_lag is added instead",
     ("friction_lag", 1, 2.0): "found and added, but the refit ends at 0.137 N, above "
     "1.15 x the clean floor (0.104 N)",
-    ("position_dependence", 1, 2.0): "found and added, but the refit ends at 0.173 N, "
-    "above 1.15 x the clean floor (0.104 N)",
-    ("drift", 1, 2.0): "ranked first (score 0.86) but not consistent across blocks "
-    "(t = 0.8), and the refit does not confirm it",
+}
+
+#: Pairs of hidden effects the diagnosis does not separate yet (README, "Limits").
+KNOWN_PAIR_FAILURES = {
+    ("asymmetry", "position_dependence"): "together they look partly like cogging, "
+    "offset and asymmetry (each explains about a quarter of the held-out residual, none "
+    "consistently over the held-out blocks): nothing is significant",
 }
 
 
@@ -131,8 +129,13 @@ def test_clean_data_nothing_significant_other_seeds(seed):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("names", [("cogging", "inertia"), ("quadratic_drag", "offset")])
-def test_pairs_of_hidden_effects(names):
+@pytest.mark.parametrize("names", [("cogging", "inertia"), ("quadratic_drag", "offset"),
+                                   ("asymmetry", "position_dependence"), ("cogging", "drift")],
+                         ids="+".join)
+def test_pairs_of_hidden_effects(names, request):
+    reason = KNOWN_PAIR_FAILURES.get(names)
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
     assert_found(list(names), seed=3)
 
 
