@@ -5,9 +5,10 @@ See docs/algorithm.md section 1 for the rules (one direction signal, backward di
 """
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
+
+from ._numerics import running_max
 
 
 class Motion(eqx.Module):
@@ -57,7 +58,7 @@ def make_motion(t: Array, x: Array, v: Array | None = None) -> Motion:
     n = d.shape[0]
     idx = jnp.arange(n, dtype=jnp.int32)
     # Index of the last moving sample so far (-1 if none): a running maximum.
-    last_idx = jax.lax.cummax(jnp.where(d != 0, idx, -1))
+    last_idx = running_max(jnp.where(d != 0, idx, -1))
     last_d = jnp.where(last_idx >= 0, d[jnp.maximum(last_idx, 0)], 0.0)
     prev_last_d = jnp.concatenate([jnp.zeros_like(last_d[:1]), last_d[:-1]])
     x_prev = jnp.concatenate([x[:1], x[:-1]])
