@@ -70,6 +70,34 @@ def test_jit_and_vmap_over_trajectories(name):
         _check_vmap_over_models(T[1], X[1], V[1])
 
 
+def test_vmap_over_trajectories_with_uneven_events():
+    """The batched event loop (one block loop shared by the batch): trajectories with many
+    events and a stack that overflows, with none (a ramp), and at rest, in one batch,
+    equal per-trajectory calls: forces, depth and overflow count."""
+    model = paper.two_state(stack_size=3)
+    n = N_BATCH
+    t = np.linspace(0.0, 0.64, n)
+    amp = 80 * UM * (1.0 - t / t[-1])  # shrinking loops: nested reversals, overflow at K=3
+    nested = amp * np.sin(2 * np.pi * 12.0 * t)
+    ramp = 2e-3 * t
+    rest = np.zeros(n)
+    T, X = np.stack([t, t, t]), np.stack([ramp, nested, rest])
+    plain = []
+    for x in X:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the overflow warning, checked below instead
+            plain.append(jaxfric.simulate(model, t, x, full_output=True))
+    assert int(plain[1].overflow) > 0 and int(plain[0].overflow) == 0
+    assert int(np.asarray(plain[1].parts["depth"]).max()) == 3
+    batched = eqx.filter_jit(
+        eqx.filter_vmap(lambda t, x: jaxfric.simulate(model, t, x, full_output=True))
+    )(T, X)
+    for i, r in enumerate(plain):
+        np.testing.assert_allclose(batched.force[i], r.force, rtol=0, atol=ATOL)
+        np.testing.assert_array_equal(batched.parts["depth"][i], r.parts["depth"])
+        assert int(batched.overflow[i]) == int(r.overflow)
+
+
 def _check_vmap_over_models(t, x, v):
     """A TwoState whose leaves carry a batch axis (different Fs, C, l1 per member).
     (Called from the test above: it shares its compiled per-trajectory program.)"""
@@ -113,9 +141,8 @@ def _assert_trees_close(a, b, rtol=1e-10):
 @pytest.mark.parametrize("name", ["gms5", "two_state"])
 def test_grad_of_vmap_and_vmap_of_grad(name):
     """Over trajectories: a vmapped gradient gives each per-item gradient, and the gradient
-    of a vmapped batch loss is the sum of the per-item gradients. (TwoState: only the
-    former; each TwoState gradient program takes ~8 s to compile, and grad-of-vmap uses the
-    same batching and transposition rules, checked here on the GMS.)"""
+    of a vmapped batch loss is the sum of the per-item gradients. For TwoState this also
+    checks the ``vmap`` rule of its event pass under both orders of transformation."""
     model = MODELS[name]()
     T, X, _ = _batch_paths()
     grad = eqx.filter_jit(eqx.filter_grad(_loss))
@@ -123,9 +150,6 @@ def test_grad_of_vmap_and_vmap_of_grad(name):
 
     vmap_of_grad = eqx.filter_jit(eqx.filter_vmap(eqx.filter_grad(_loss), in_axes=(None, 0, 0)))
     _assert_trees_close(vmap_of_grad(model, T, X), _stack(per_item))
-
-    if name == "two_state":
-        return
 
     @eqx.filter_jit
     @eqx.filter_grad

@@ -3,13 +3,19 @@
 Structure, chosen for speed and clean gradients:
 
 * the event logic (reversal detection, stack push with wiping-out and overflow, the
-  loop-closure cascade) is the only sequential part: one small ``lax.scan`` whose carry is
-  the fixed-size memory stack and whose output is the reference entry in use at each sample;
-* ``F_h`` is algebraic given that entry (Eq. 32), so it is computed vectorised afterwards;
-* ``F_l`` is a linear recurrence (exact decay), computed with an associative scan.
+  loop-closure cascade) is the only sequential part, and it is discrete: it runs on
+  stopped gradients in a ``lax.while_loop`` that jumps from event to event, testing a
+  block of samples at once (`_event_loop`), and records per event the entry in use, the
+  parent of a pushed entry and the entries popped;
+* everything smooth is computed from those records, vectorised and differentiable: the
+  branch-start forces ``h`` as a running sum over pushes minus pops, ``F_h`` from the
+  entry in use (Eq. 32), and ``F_l`` as a linear recurrence (exact decay).
 
-``TwoState.step`` composes the very same helpers for one sample, for closed-loop use.
+``TwoState.step`` composes the same helpers (`_push`, `_close`, `_branch`) for one sample,
+for closed-loop use; tests check both give the same forces.
 """
+
+import functools
 
 import equinox as eqx
 import jax
@@ -17,7 +23,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .._inputs import Motion
-from .._numerics import as_param, linear_recurrence, safe_div
+from .._numerics import as_param, linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
 from ._base import AbstractFrictionModel, SimResult
@@ -32,9 +38,11 @@ class MemoryStack(eqx.Module):
 
     Per entry: `x` (m), `h` = F_h at the start of the branch (N), `s` = the Stribeck rest
     value at the reversal (N; 0 for the zero state), `theta` = its presliding extent
-    ``|x - x_below| / |s - s_below|`` (m/N), `closable` = ``theta <= l1`` (Eq. 25/29).
-    `zero_bottom` says whether the bottom entry is the zero state; `overflow` counts the
-    entries dropped because the buffer was full.
+    ``|x - x_below| / |s - s_below|`` (m/N), `closable` = ``theta <= l1`` (Eq. 25/29),
+    `ref` = the sample index of the reversal that pushed it (-1 for the zero state and in
+    `TwoState.step`, which has no sample index). `zero_bottom` says whether the bottom
+    entry is the zero state; `overflow` counts the entries dropped because the buffer was
+    full.
     """
 
     x: Float[Array, " K"]
@@ -42,6 +50,7 @@ class MemoryStack(eqx.Module):
     s: Float[Array, " K"]
     theta: Float[Array, " K"]
     closable: Bool[Array, " K"]
+    ref: Int[Array, " K"]
     base: Int[Array, ""]
     depth: Int[Array, ""]
     zero_bottom: Bool[Array, ""]
@@ -57,6 +66,7 @@ class MemoryStack(eqx.Module):
             s=zeros,
             theta=zeros,
             closable=jnp.zeros((size,), bool),
+            ref=jnp.full((size,), -1, jnp.int32),
             base=jnp.zeros((), jnp.int32),
             depth=jnp.ones((), jnp.int32),
             zero_bottom=jnp.ones((), bool),
@@ -121,15 +131,19 @@ class TwoState(AbstractFrictionModel):
         p, _, g = self.shape.pi_kappa_gamma(xi, self.stribeck.Fs)
         return h_e + p * den, xi, g
 
-    def _push(self, stack: MemoryStack, reversal, x_r, s_r) -> MemoryStack:
-        """Rule 1 at reversal point ``x_r`` (rest value ``s_r``), with wiping and overflow;
-        nothing changes where `reversal` is false."""
+    def _push(self, stack: MemoryStack, reversal, x_r, s_r, ref_r=-1, with_h=True) -> MemoryStack:
+        """Rule 1 at reversal point ``x_r`` (rest value ``s_r``; `ref_r` its sample index),
+        with wiping and overflow; nothing changes where `reversal` is false. With
+        ``with_h=False`` the entry's `h` is left at 0 (the event pass does not need it)."""
         size = stack.x.shape[0]
         top = stack.top
         x_e, h_e, s_e = stack.top_entry()
         den = s_r - s_e
         # F_h at the reversal, in the v -> 0 limit s = s_r (MODEL_NOTES, traps).
-        h_r = h_e + self.shape.pi(safe_div(x_r - x_e, den), self.stribeck.Fs) * den
+        if with_h:
+            h_r = h_e + self.shape.pi(safe_div(x_r - x_e, den), self.stribeck.Fs) * den
+        else:
+            h_r = jnp.zeros_like(h_e)
         theta = safe_div(jnp.abs(x_r - x_e), jnp.abs(den))
         # Wiping-out: a reversal outside presliding makes every entry below the current
         # branch start unreachable; that start becomes the bottom (it is kept).
@@ -153,6 +167,7 @@ class TwoState(AbstractFrictionModel):
             s=put(stack.s, s_r),
             theta=put(stack.theta, theta),
             closable=put(stack.closable, theta <= self.shape.l1),
+            ref=put(stack.ref, jnp.asarray(ref_r, jnp.int32)),
             base=base,
             depth=depth,
             zero_bottom=stack.zero_bottom & ~dropped,
@@ -186,12 +201,11 @@ class TwoState(AbstractFrictionModel):
         return eqx.tree_at(lambda st: st.depth, stack, (new_top + 1).astype(jnp.int32))
 
     def _events(self, stack, x, s, reversal, x_r, s_r) -> MemoryStack:
-        """Rule 1 (push) then Rules 2-3 (closures) for one sample.
+        """Rule 1 (push) then Rules 2-3 (closures) for one sample (`step`).
 
         Both are rare, so an ordinary sample only pays for a few scalar tests: the push
         runs under ``lax.cond`` on `reversal`, and the K-wide closure cascade only when the
-        top level closes (a cascade always starts there). Under ``vmap`` the conds become
-        selects, and the per-sample cost is then shared by the whole batch.
+        top level closes (a cascade always starts there).
         """
         stack = jax.lax.cond(
             reversal,
@@ -199,17 +213,29 @@ class TwoState(AbstractFrictionModel):
             lambda st: st,
             stack,
         )
+        return jax.lax.cond(
+            self._top_closes(stack, x, s), lambda st: self._close(st, x, s), lambda st: st, stack
+        )
+
+    @staticmethod
+    def _top_closes(stack: MemoryStack, x, s):
+        """Whether position(s) `x` (Stribeck values `s`) close the top level: the test
+        `_close` applies to it (level >= 1, closable, xi >= theta; level 1 needs the zero
+        state below it). Vectorised over `x`, `s` for the same stack."""
         top = stack.top
-        x_e, s_e = stack.x[top], stack.s[top]
-        # Same test as `_close` applies to the top level (level >= 1, closable, xi >= theta);
-        # level 1 needs the zero state below it.
-        top_closes = (
+        return (
             (stack.depth >= 2)
             & stack.closable[top]
             & ((stack.depth >= 3) | stack.zero_bottom)
-            & (safe_div(x - x_e, s - s_e) >= stack.theta[top])
+            & (safe_div(x - stack.x[top], s - stack.s[top]) >= stack.theta[top])
         )
-        return jax.lax.cond(top_closes, lambda st: self._close(st, x, s), lambda st: st, stack)
+
+    def _event_pass(self, x, s, reversal, x_prev, s_r) -> "_Events":
+        """The sequential part of a trajectory (see `_event_records`), on stopped
+        gradients: everything it decides is discrete."""
+        params, static = eqx.partition(self, eqx.is_array)
+        params, x, s, x_prev, s_r = jax.lax.stop_gradient((params, x, s, x_prev, s_r))
+        return _event_records(static)(params, x, s, reversal, x_prev, s_r)
 
     def _lag_coefficients(self, dt, s, d, prev_last_d, reversal, s_prev, gamma):
         """``F_l,n = a * F_l,n-1 + b`` (docs/algorithm.md section 4, step 4)."""
@@ -256,15 +282,42 @@ class TwoState(AbstractFrictionModel):
         s = self.stribeck.effective(motion.v, motion.last_d)
         s_r = self.stribeck.rest(motion.prev_last_d)
         reversal = motion.reversal
+        n = motion.x.shape[0]
+        rec = self._event_pass(motion.x, s, reversal, motion.x_prev, s_r)
 
-        def body(stack, inp):
-            stack = self._events(stack, *inp)
-            return stack, (*stack.top_entry(), stack.depth)
+        # Forward-fill the records: each sample uses the state after the last event at or
+        # before it (the zero state before the first).
+        idx = jnp.arange(n, dtype=jnp.int32)
+        last = running_max(jnp.where(rec.event, idx, -1))
+        seen = last >= 0
+        last = jnp.maximum(last, 0)
+        # Before any event: the zero state (-1), depth 1, no parent, nothing popped.
+        none = jnp.array([-1, 1, -1, 0], jnp.int32)
+        filled = jnp.where(seen[:, None], rec.table[last], none)
+        active, depth, popped_until = filled[:, 0], filled[:, 1], filled[:, 3]
 
-        stack0 = MemoryStack.zero_state(self.stack_size, motion.x[0])
-        final, (x_e, h_e, s_e, depth) = jax.lax.scan(
-            body, stack0, (motion.x, s, reversal, motion.x_prev, s_r)
+        def entry(ref):
+            """(x, s) of the entries pushed at samples `ref` (-1: the zero state)."""
+            r = jnp.maximum(ref, 0)
+            return (
+                jnp.where(ref >= 0, motion.x_prev[r], motion.x[0]),
+                jnp.where(ref >= 0, s_r[r], 0.0),
+            )
+
+        # h of the entry pushed at reversal r is h(parent) + g_r (see `_push`); h of the
+        # entry in use is then the running sum of g over pushed entries minus those popped
+        # (entries dropped by wiping or overflow stay in: they are ancestors of the bottom).
+        x_p, s_p = entry(rec.parent)
+        den = s_r - s_p
+        g = jnp.where(
+            reversal, self.shape.pi(safe_div(motion.x_prev - x_p, den), self.stribeck.Fs) * den, 0.0
         )
+        popped = rec.popped[:n]
+        g_popped = running_sum(jnp.where(popped >= 0, g[jnp.maximum(popped, 0)], 0.0))
+        h_e = running_sum(g) - jnp.where(
+            popped_until > 0, g_popped[jnp.maximum(popped_until - 1, 0)], 0.0
+        )
+        x_e, s_e = entry(active)
         f_h, _, gamma = self._branch(motion.x, s, x_e, h_e, s_e)
         s_prev = jnp.concatenate([jnp.zeros_like(s[:1]), s[:-1]])
         a, b = self._lag_coefficients(
@@ -275,5 +328,169 @@ class TwoState(AbstractFrictionModel):
         return SimResult(
             force=f_h + lag + viscous,
             parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
-            overflow=final.overflow,
+            overflow=rec.overflow,
         )
+
+
+#: Samples tested at once per iteration of the event loop (see `_event_loop`).
+_WINDOW = 64
+
+
+def _apply_event(model, stack, hit, j, x, s, reversal, x_prev, s_r):
+    """The event at sample `j` of one trajectory, if `hit`: `_push` at a reversal, then
+    the `_close` cascade. Returns the new stack, the entry that was on top (the parent of
+    a pushed one), the entries popped (``size`` slots, the first `count` valid), `count`."""
+    size = stack.x.shape[0]
+
+    def apply(stack):
+        parent = stack.ref[stack.top]
+        pushed = jax.lax.cond(
+            reversal[j],
+            lambda st: model._push(st, True, x_prev[j], s_r[j], j, with_h=False),
+            lambda st: st,
+            stack,
+        )
+        closed = model._close(pushed, x[j], s[j])
+        # Popped: logical levels closed.depth .. pushed.depth - 1 (a run from the top).
+        levels = closed.depth + jnp.arange(size, dtype=jnp.int32)
+        refs = pushed.ref[(pushed.base + levels) % size]
+        return closed, parent, refs, pushed.depth - closed.depth
+
+    def skip(stack):
+        return stack, jnp.int32(-1), jnp.full((size,), -1, jnp.int32), jnp.int32(0)
+
+    return jax.lax.cond(hit, apply, skip, stack)
+
+
+def _record(rec, hit, j, stack, parent, refs, npop, count):
+    """Write one trajectory's event at sample `j` into its records (slot n if not `hit`)."""
+    n = rec.table.shape[0] - 1
+    row = jnp.stack([stack.ref[stack.top], stack.depth, parent, npop + count])
+    return _Events(
+        table=jax.lax.dynamic_update_slice(
+            rec.table, row[None], (jnp.where(hit, j, n).astype(jnp.int32), jnp.int32(0))
+        ),
+        popped=jax.lax.dynamic_update_slice(rec.popped, refs, (npop,)),
+        overflow=stack.overflow,
+    )
+
+
+def _event_loop(static, params, params_axes, X, S, R, XP, SR, batched=True):
+    """The events of a batch of trajectories (leading axis of X, S, R, XP, SR; `params`
+    batched where `params_axes` says 0), in one ``lax.while_loop`` over blocks of
+    `_WINDOW` samples shared by the whole batch. With ``batched=False``, one trajectory
+    (1-D arrays): the same loop without ``vmap``, so that an iteration without an event
+    skips `_apply_event` (under ``vmap`` its ``lax.cond`` becomes a select).
+
+    One iteration tests every sample of the current block at once, for every trajectory,
+    against its current stack (a reversal, or a position that closes the top level), from
+    the trajectory's next unprocessed sample on. Each trajectory with an event there
+    applies its first one (`_apply_event`) and records it; the loop moves to the next block
+    when no trajectory has an event left in this one. So a block costs one iteration plus
+    one per event (of its busiest trajectory), and because the block start is the same for
+    the whole batch, the windows are plain slices. The loop condition does not depend on
+    the data, so nothing is selected wholesale under ``vmap`` (this function is what the
+    ``vmap`` rule of `_event_records` calls).
+    """
+    *lead, n = X.shape
+    lead = tuple(lead)
+    size, W = static.stack_size, _WINDOW
+    blocks = -(-n // W)
+
+    def pad(a):
+        return jnp.concatenate([a, jnp.zeros((*lead, blocks * W - n), a.dtype)], axis=-1)
+
+    Xw, Sw, Rw = pad(X), pad(S), pad(R)
+    records = _Events(
+        table=jnp.zeros((*lead, n + 1, 4), jnp.int32),
+        popped=jnp.full((*lead, n + size), -1, jnp.int32),
+        overflow=jnp.zeros(lead, jnp.int32),
+    )
+    zero_state = functools.partial(MemoryStack.zero_state, size)
+    stack0 = jax.vmap(zero_state)(X[:, 0]) if batched else zero_state(X[0])
+    zeros = jnp.zeros(lead, jnp.int32)
+    offsets = jnp.arange(W, dtype=jnp.int32)
+
+    def one(params, stack, nxt, npop, rec, xs, ss, rs, x, s, r, xp, sr, start):
+        model = eqx.combine(params, static)
+        sample = start + offsets
+        ev = (rs | model._top_closes(stack, xs, ss)) & (sample >= nxt) & (sample < n)
+        k = jnp.argmax(ev).astype(jnp.int32)
+        hit = ev[k]
+        j = jnp.minimum(start + k, n - 1)
+        stack, parent, refs, count = _apply_event(model, stack, hit, j, x, s, r, xp, sr)
+        rec = _record(rec, hit, j, stack, parent, refs, npop, count)
+        return stack, jnp.where(hit, j + 1, nxt), npop + count, rec, hit
+
+    step = jax.vmap(one, in_axes=(params_axes, *[0] * 12, None)) if batched else one
+
+    def body(carry):
+        block, stack, nxt, npop, rec = carry
+        start = block * W
+        window = [jax.lax.dynamic_slice_in_dim(a, start, W, axis=-1) for a in (Xw, Sw, Rw)]
+        stack, nxt, npop, rec, hit = step(
+            params, stack, nxt, npop, rec, *window, X, S, R, XP, SR, start
+        )
+        return jnp.where(jnp.any(hit), block, block + 1), stack, nxt, npop, rec
+
+    carry = (jnp.int32(0), stack0, zeros, zeros, records)
+    return jax.lax.while_loop(lambda c: c[0] < blocks, body, carry)[4]
+
+
+def _event_records(static):
+    """For the non-array part `static` of a `TwoState`, a function of its array part and
+    one trajectory that returns the records of its events (the sequential part of
+    `TwoState._simulate`): a ``lax.while_loop`` that jumps from event to event, about
+    ``n / window + number of events`` iterations instead of ``n``. Under ``vmap`` the
+    whole batch runs in one loop (`_event_loop`)."""
+
+    @jax.custom_batching.custom_vmap
+    def records(params, x, s, reversal, x_prev, s_r):
+        return _event_loop(static, params, None, x, s, reversal, x_prev, s_r, batched=False)
+
+    @records.def_vmap
+    def records_vmap(axis_size, in_batched, params, *arrays):
+        params_batched, *arrays_batched = in_batched
+        arrays = [
+            a if b else jnp.broadcast_to(a, (axis_size, *a.shape))
+            for a, b in zip(arrays, arrays_batched)
+        ]
+        params_axes = jax.tree.map(lambda b: 0 if b else None, params_batched)
+        rec = _event_loop(static, params, params_axes, *arrays)
+        return rec, jax.tree.map(lambda _: True, rec)
+
+    return records
+
+
+class _Events(eqx.Module):
+    """Records of `TwoState._event_pass`. `table` has a row per sample (row ``n`` is
+    scratch) and is written at event samples only, with: the entry in use after the event
+    (`active`: a reversal's sample index, or -1 for the zero state), the stack `depth` (0:
+    no event at this sample), the `parent` of the entry pushed there, and `popped_until`,
+    the length of the list `popped` of entries closed so far (their sample indices, in
+    order); `overflow` counts entries dropped for space. One table rather than an array per
+    field because each write in the event loop is a separate kernel call on the CPU."""
+
+    table: Int[Array, "n1 4"]
+    popped: Int[Array, " m"]
+    overflow: Int[Array, ""]
+
+    @property
+    def event(self):
+        return self.table[:-1, 1] > 0
+
+    @property
+    def active(self):
+        return self.table[:-1, 0]
+
+    @property
+    def depth(self):
+        return self.table[:-1, 1]
+
+    @property
+    def parent(self):
+        return self.table[:-1, 2]
+
+    @property
+    def popped_until(self):
+        return self.table[:-1, 3]
