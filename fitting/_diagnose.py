@@ -29,14 +29,14 @@ Then, for every candidate effect of `jaxfric.effects`:
 The best significant effect is added (``model + effect``, starting from the regression's
 values), everything is refitted jointly on the training set (twice: from the fitted model,
 and from the starting model with the effects, which is not bent by the missing effect; the
-better training fit is kept, and a fit that stops at its step limit is restarted once), and
-the ranking repeats on the new residual until nothing significant is left. The held-out RMSE after each addition is
-reported; an addition whose refit removes less than ``min_score/2`` of the held-out SSE
-is undone and marked not significant, and the next significant candidate is tried. When
-nothing is significant but the best score is at least ``4*min_score`` (a large effect
-whose screen a second missing effect made inconsistent), that candidate is tried too, and
-kept only if the refit's held-out improvement is consistent block by block (``t`` at
-least `min_t`).
+better training fit is kept, and a fit that stops at its step limit is restarted once),
+and the ranking repeats on the new residual until nothing significant is left. The
+held-out RMSE after each addition is reported; an addition whose refit removes less than
+``min_score/2`` of the held-out SSE is undone and marked not significant, and the next
+significant candidate is tried. When nothing is significant but the best score is at least
+``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
+that candidate is tried too, and kept only if the refit's held-out improvement is
+consistent block by block (``t`` at least `min_t`).
 """
 
 import dataclasses
