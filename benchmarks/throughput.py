@@ -30,8 +30,8 @@ device (``jnp.asarray``) before timing; the Numba baseline gets NumPy arrays.
    XLA's own memory analysis (arguments + outputs + temporaries) plus the host copies of
    the inputs give the footprint, and a B whose footprint exceeds ``--mem-budget-gb``
    (default 4 GiB, for a shared machine) is skipped and reported as skipped. The vmapped
-   two-state needs about 130 bytes per trajectory-step, so B = 4096 at 1e4 steps (about
-   5.6 GiB) is skipped by default; ``--mem-budget-gb 8`` includes it. The Numba batch
+   two-state needs about 180 bytes per trajectory-step, so B = 4096 at 1e4 steps (about
+   6.7 GiB) is skipped by default; ``--mem-budget-gb 8`` includes it. The Numba batch
    needs 24 bytes per trajectory-step and runs wherever it fits.
 3. *Compile times*: first call minus steady state for each model (section 1), and
    ``lower()`` / ``compile()`` timings for the vmapped simulation and the gradients.
