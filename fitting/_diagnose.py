@@ -29,7 +29,8 @@ Then, for every candidate effect of `jaxfric.effects`:
 The best significant effect is added (``model + effect``, starting from the regression's
 values), everything is refitted jointly on the training set (twice: from the fitted model,
 and from the starting model with the effects, which is not bent by the missing effect; the
-better training fit is kept, and a fit that stops at its step limit is restarted once),
+better training fit is kept, and a fit that stops at its step limit is restarted while
+that still lowers its error by more than 1 %, up to five times),
 and the ranking repeats on the new residual until nothing significant is left. The
 held-out RMSE after each addition is reported; an addition whose refit removes less than
 ``min_score/2`` of the held-out SSE is undone and marked not significant, and the next
@@ -443,18 +444,30 @@ def _code(effect) -> str:
     return f"model + jaxfric.effects.{type(effect).__name__}({args})"
 
 
+#: Most warm restarts of a refit that stops at its step limit (see `_step`).
+_RESTARTS = 5
+
+
 def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=(),
           restart=False):
     names = _params.leaf_names(_params.to_fit_representation(model))
     free = [n for n in names if n not in fixed] if fixed else None
     res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps, free=free)
-    if restart and not bool(res.converged):
-        # A refit with a new effect starts from the screen's values, often far from its
-        # optimum; a warm restart (fresh damping) gets it unstuck more often than more steps.
+    # A refit with a new effect starts from the screen's values, often far from its
+    # optimum; a warm restart (fresh damping) gets it unstuck more often than more steps.
+    # Restart while the fit stops at its step limit and each restart still lowers the
+    # training RMSE by more than 1 % (slow but steady fits, e.g. a friction lag of twice
+    # the nominal size, need about five rounds of 300 steps), at most `_RESTARTS` times.
+    for _ in range(_RESTARTS if restart else 0):
+        if bool(res.converged):
+            break
         again = fit(res.model, t, x, F, v, weights=train.astype(float), max_steps=max_steps,
                     free=free)
+        progress = float(again.rmse) < 0.99 * float(res.rmse)
         if float(again.rmse) <= float(res.rmse):
             res = again
+        if not progress:
+            break
     resid = np.asarray(res.prediction) - F
     return Step(
         added=list(added), fit=res,

@@ -15,9 +15,9 @@ plus the model mismatch, 0.09 N for 0.05 N of noise), which is itself checked to
 twice the noise. Clean data: nothing significant. Two hidden effects: both found.
 
 The default run checks the clean case, one effect and one pair; ``pytest -m slow`` runs every
-effect at two seeds and two magnitudes, more pairs, and the real EMPS data. One of the 22
-single-effect cases does not pass yet; it is listed, with what goes wrong, in
-`KNOWN_FAILURES` (strict xfail).
+effect at two seeds and two magnitudes, more pairs, and the real EMPS data. Cases that do
+not pass yet are listed, with what goes wrong, in `KNOWN_FAILURES` and
+`KNOWN_PAIR_FAILURES` (strict xfail).
 """
 
 import functools
@@ -98,10 +98,7 @@ def test_two_hidden_effects_both_found():
 
 #: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
 #: Strict: when one starts to pass, the test fails until it is taken off this list.
-KNOWN_FAILURES = {
-    ("friction_lag", 1, 2.0): "found and added, but the refit ends at 0.137 N, above "
-    "1.15 x the clean floor (0.104 N)",
-}
+KNOWN_FAILURES: dict[tuple[str, int, float], str] = {}
 
 #: Pairs of hidden effects the diagnosis does not separate yet (README, "Limits").
 KNOWN_PAIR_FAILURES = {
