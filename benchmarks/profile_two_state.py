@@ -13,7 +13,7 @@ iteration needs).
 
 Run ``python benchmarks/profile_two_state.py [--n N] [--repeats R] [--json OUT]``. All cases
 are called once in turn per round (interleaved); medians over the rounds, in ns per sample,
-on the mixed motion of `benchmarks/throughput.py`.
+on the mixed motion of `benchmarks/throughput.py` (`benchmarks/motions.py`).
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ from jaxfric._inputs import make_motion
 
 
 try:
-    from benchmarks.throughput import mixed_path
+    from benchmarks.motions import mixed_path
 except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
-    from throughput import mixed_path
+    from motions import mixed_path
 
 
 def _stages(model, t, x):

@@ -92,8 +92,10 @@ from jaxfric import paper
 
 try:
     from benchmarks import numba_two_state as nbts
+    from benchmarks.motions import mixed_path
 except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     import numba_two_state as nbts
+    from motions import mixed_path
 
 
 UM = 1e-6
@@ -134,23 +136,6 @@ GOAL_COMPILE_S = 5.0  # s
 # ---------------------------------------------------------------------------------------
 # Motions
 # ---------------------------------------------------------------------------------------
-
-
-def mixed_path(n: int, dt: float = 1e-3, rng: np.random.Generator | None = None):
-    """``t`` (s), ``x`` (m) with n samples: a 1 mm, 0.2 Hz sliding sine plus presliding
-    sines of 100 um at 1.3 Hz and 20 um at 4.1 Hz. Random phases (and +-20 % amplitudes)
-    when `rng` is given, for batches; otherwise fixed phases."""
-    t = dt * np.arange(n, dtype=np.float64)
-    if rng is None:
-        ph, amp = np.array([0.0, 1.0, 2.0]), np.ones(3)
-    else:
-        ph, amp = rng.uniform(0.0, 2 * np.pi, 3), rng.uniform(0.8, 1.2, 3)
-    x = (
-        amp[0] * 1e-3 * np.sin(2 * np.pi * 0.2 * t + ph[0])
-        + amp[1] * 100 * UM * np.sin(2 * np.pi * 1.3 * t + ph[1])
-        + amp[2] * 20 * UM * np.sin(2 * np.pi * 4.1 * t + ph[2])
-    )
-    return t, x
 
 
 def nested_presliding_path(dt: float = 1e-3, speed: float = 20 * UM):
