@@ -92,13 +92,12 @@ from jaxfric import paper
 
 try:
     from benchmarks import numba_two_state as nbts
-    from benchmarks.motions import mixed_path
+    from benchmarks.motions import mixed_path, UM
 except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     import numba_two_state as nbts
-    from motions import mixed_path
+    from motions import mixed_path, UM
 
 
-UM = 1e-6
 REPO = Path(__file__).resolve().parents[1]
 
 #: Sizes of the full run and of ``--quick``.
