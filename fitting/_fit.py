@@ -421,23 +421,36 @@ def _problem_from_fit(fit_model, props, free, paper_shape: bool):
     return problem, _params.to_vector(fit_model, layout)
 
 
+@eqx.filter_jit
+def _assemble_arrays(problem: _Problem, core: _Core):
+    """The arrays of a `FitResult` from solver arrays (batched cores too), in one compiled
+    call: run op by op, the first fit of a session compiled some 25 small kernels here."""
+    batched = core.y.ndim == 2
+    y_one = core.y[0] if batched else core.y  # names and structure do not depend on y
+    model = jax.vmap(problem.user_model)(core.y) if batched else problem.user_model(core.y)
+    sd = jnp.sqrt(jnp.diagonal(core.cov_natural, axis1=-2, axis2=-1))
+    k = core.natural.shape[-1]
+    return {"model": model, "user_one": problem.user_model(y_one),
+            "fit_one": problem.model(y_one),
+            "natural": tuple(core.natural[..., i] for i in range(k)),
+            "sd": tuple(sd[..., i] for i in range(k)),
+            "corr": _correlation(core.cov_natural), "corr_fit": _correlation(core.cov_fit)}
+
+
 def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResult:
     """Turn solver arrays into a `FitResult` (works on batched cores too)."""
     layout = problem.layout
-    batched = core.y.ndim == 2
-    y_one = core.y[0] if batched else core.y  # names and structure do not depend on y
-    names = _params.natural_names(problem.user_model(y_one))
-    model = jax.vmap(problem.user_model)(core.y) if batched else problem.user_model(core.y)
+    out = _assemble_arrays(problem, core)
+    names = _params.natural_names(out["user_one"])
     leaf_free = np.asarray(layout.leaf_free)
-    sd = jnp.sqrt(jnp.diagonal(core.cov_natural, axis1=-2, axis2=-1))
     return FitResult(
-        model=model,
-        params={n: core.natural[..., i] for i, n in enumerate(names)},
-        stderr={n: sd[..., i] for i, n in enumerate(names)},
+        model=out["model"],
+        params=dict(zip(names, out["natural"])),
+        stderr=dict(zip(names, out["sd"])),
         cov=core.cov_natural,
-        corr=_correlation(core.cov_natural),
+        corr=out["corr"],
         cov_fit=core.cov_fit,
-        corr_fit=_correlation(core.cov_fit),
+        corr_fit=out["corr_fit"],
         prediction=prediction,
         residuals=residuals,
         rmse=core.rmse,
@@ -448,7 +461,7 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResul
         num_steps=core.num_steps,
         overflow=core.overflow,
         names=names,
-        fit_names=_params.natural_names(problem.model(y_one)),
+        fit_names=_params.natural_names(out["fit_one"]),
         free=tuple(n for n, f in zip(layout.names, leaf_free) if f),
     )
 

@@ -212,6 +212,7 @@ def make_layout(model, props) -> Layout:
     )
 
 
+@eqx.filter_jit  # one compiled call instead of some ten small kernels, op by op
 def to_vector(model, layout: Layout) -> Array:
     """The unconstrained, scaled vector ``y`` of `model` (free and fixed leaves alike)."""
     params, _ = parameters(model)

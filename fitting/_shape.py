@@ -80,19 +80,7 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
     @classmethod
     def from_paper(cls, shape: jaxfric.PaperShape, Fs: ArrayLike) -> "NormalizedPaperShape":
         """The same ``Pi`` as `shape` for a static level `Fs` (N)."""
-        Fs = jnp.asarray(Fs)
-        big_x = 2.0 * Fs * shape.l1
-        b_lo = safe_pow(shape.beta, shape.alpha)
-        span = safe_pow(big_x + shape.beta, shape.alpha) - b_lo
-        curvature = -shape.b * span
-        exp_part = -shape.a * jnp.exp(shape.b * b_lo) * jnp.expm1(-curvature)
-        return cls(
-            l1=shape.l1,
-            alpha=shape.alpha,
-            beta_rel=shape.beta / big_x,
-            curvature=curvature,
-            quartic=shape.c * big_x**4 / exp_part,
-        )
+        return _from_paper(cls, shape, jnp.asarray(Fs))
 
     def to_paper(self, Fs: ArrayLike) -> jaxfric.PaperShape:
         """The paper's symbols ``a, b, c, alpha, beta, l1`` (SI) for static level `Fs` (N),
@@ -112,3 +100,20 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
         a = -exp_part / (jnp.exp(b * b_lo) * jnp.expm1(-curvature))
         c = self.quartic * exp_part / big_x**4
         return jaxfric.PaperShape(a=a, b=b, c=c, alpha=self.alpha, beta=beta, l1=self.l1)
+
+
+# One compiled call: op by op, the first fit of a session compiled some ten small kernels.
+@eqx.filter_jit
+def _from_paper(cls, shape, Fs):
+    big_x = 2.0 * Fs * shape.l1
+    b_lo = safe_pow(shape.beta, shape.alpha)
+    span = safe_pow(big_x + shape.beta, shape.alpha) - b_lo
+    curvature = -shape.b * span
+    exp_part = -shape.a * jnp.exp(shape.b * b_lo) * jnp.expm1(-curvature)
+    return cls(
+        l1=shape.l1,
+        alpha=shape.alpha,
+        beta_rel=shape.beta / big_x,
+        curvature=curvature,
+        quartic=shape.c * big_x**4 / exp_part,
+    )
