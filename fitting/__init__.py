@@ -11,8 +11,9 @@ properties pytree beside the model, never inside it.
   weights=None, reparameterize=True) -> FitResult`: one experiment.
 - `fit_datasets(model, datasets, ...) -> FitResult`: several experiments (`Dataset`) at once.
 - `fit_batch(model, t, x, F, v=None, *, weights=None, ...) -> FitResult`: B independent fits
-  in one vmapped call (arrays ``(B, n)``, or ragged lists padded with weight-0 samples); each
-  dataset gets its own result code, and a failing one does not affect the others.
+  in one compiled call (arrays ``(B, n)``, or ragged lists padded with weight-0 samples;
+  one dataset after the other, or vmapped with ``vectorize=True``); each dataset gets its
+  own result code, and a failing one does not affect the others.
 - `fit_staged(model, sliding, presliding=None, lag=None, *, joint=True, ...)
   -> StagedResult`: the paper's Sec. 5 procedure (Stribeck + sigma2 from constant-velocity
   segments, presliding shape from reversals, C from varying-velocity sliding), then a joint

@@ -292,12 +292,19 @@ _solve = eqx.filter_jit(_solve_impl)
 
 
 @eqx.filter_jit
-def _solve_batch(problem, y0, data, solver, max_steps):
-    # vmap over datasets only; returning arrays and the result code (never the whole
-    # optimistix Solution, whose state holds jaxprs that cannot be batched: optimistix
-    # issues #38 and #63). Each dataset's loop stops at its own termination; a failure in
-    # one only shows in its own `result`.
-    return jax.vmap(lambda d: _solve_impl(problem, y0, d, solver, max_steps))(data)
+def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
+    # Over datasets only; returning arrays and the result code (never the whole optimistix
+    # Solution, whose state holds jaxprs that cannot be batched: optimistix issues #38 and
+    # #63). A failure in one dataset only shows in its own `result`.
+    # `lax.map` (default): one dataset after the other through the unbatched solve, which
+    # on a CPU compiles and runs faster than the vmapped loop, and each dataset stops at
+    # its own termination (under `vmap` the loop runs until the slowest dataset stops;
+    # benchmarks/throughput.py compares both). `vmap` (`vectorize=True`): one loop for
+    # all, for accelerators.
+    def one(d):
+        return _solve_impl(problem, y0, d, solver, max_steps)
+
+    return jax.vmap(one)(data) if vectorize else jax.lax.map(one, data)
 
 
 def _correlation(cov):
@@ -576,8 +583,9 @@ def fit_batch(
     max_steps: int = 256,
     reparameterize: bool = True,
     devices: Sequence[jax.Device] | None = None,
+    vectorize: bool = False,
 ) -> FitResult:
-    """Fit `model` separately to each of B datasets in one vmapped, compiled call.
+    """Fit `model` separately to each of B datasets in one compiled call.
 
     `t`, `x`, `F`, `v`, `weights` are arrays of shape ``(B, n)``, or sequences of B 1-D arrays
     of different lengths (padded to the longest with weight-0 samples). Every dataset starts
@@ -587,9 +595,15 @@ def fit_batch(
     ``status`` is a list). `prediction` and `residuals` are ``(B, n)`` including any padding
     (whose residuals are meaningless). A dataset that fails (e.g. non-finite forces, or
     `max_steps` reached) reports it in its own ``result``/``status`` and does not change the
-    others: each runs its own solver loop under `jax.vmap`, and only arrays and the result
-    code leave the vmapped function. Inputs ``t``, ``x``, ``v`` are checked per dataset
-    (``ValueError`` naming the dataset); ``F`` is not, so that one bad dataset fails alone.
+    others: each runs its own solver loop. Inputs ``t``, ``x``, ``v`` are checked per
+    dataset (``ValueError`` naming the dataset); ``F`` is not, so that one bad dataset
+    fails alone.
+
+    `vectorize`: ``False`` (default) solves the datasets one after the other inside the
+    compiled call (`jax.lax.map`), each until its own convergence; on a CPU this compiles
+    and runs faster than a vmapped solve (`benchmarks/throughput.py` compares both).
+    ``True`` vmaps the solver over the datasets (one loop for all, running until the
+    slowest dataset stops), for accelerators that gain from the batch.
 
     `devices`: spread the B datasets over these devices (``jax.devices()`` for all): they
     are split into one contiguous share per device, each share is placed on its device
@@ -622,15 +636,16 @@ def fit_batch(
     # One dataset per fit: (B, 1, n).
     data = jax.tree.map(lambda a: a[:, None, :], stacked)
     if devices is not None and len(devices) > 1:
-        core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices))
+        core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices),
+                                       vectorize)
     else:
-        core = _solve_batch(problem, y0, data, solver, max_steps)
+        core = _solve_batch(problem, y0, data, solver, max_steps, vectorize)
     _warn_overflow(core)
     pred = core.prediction[:, 0, :]
     return _assemble(problem, core, pred, pred - stacked.F)
 
 
-def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices):
+def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize):
     """`_solve_batch` with the B datasets split into contiguous shares, one per device.
 
     Each share is placed on its device and solved there by the same compiled function;
@@ -652,6 +667,7 @@ def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices):
                 lambda a, pad=share - size: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]),
                 part)
         problem_k, y0_k, part = jax.device_put((problem, y0, part), device)
-        pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps)))
+        pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps,
+                                           vectorize)))
     shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in pending]
     return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)

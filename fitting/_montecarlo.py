@@ -113,7 +113,7 @@ def monte_carlo(
     Each of `num` draws perturbs the free parameters of `model` (`param_sigma`), simulates
     the force along ``(t, x[, v])``, adds Gaussian noise of standard deviation `noise_sigma`
     (N), and (with `refit`) fits `model` back to that synthetic measurement, all draws in one
-    vmapped solve (`fit_batch`).
+    compiled solve (`fit_batch`).
 
     **Arguments:**
 

@@ -264,6 +264,25 @@ def test_batch_matches_one_by_one_and_isolates_a_bad_dataset():
 # ---- Monte Carlo ---------------------------------------------------------------------
 
 
+def test_batch_vectorized_matches_one_after_the_other():
+    """`fit_batch(..., vectorize=True)` (one vmapped solver loop for all datasets) reaches
+    the default's optimum (the datasets solved one after the other), dataset by dataset."""
+    true = paper.tustin()
+    t, x = legs(np.asarray([0, 2000, -2000, 1500]) * UM, [2e-3, 5e-3, 1e-3], 120)
+    forces = np.stack([noisy(true, t, x, seed=200 + i) for i in range(3)])
+    tt, xx = np.broadcast_to(t, forces.shape), np.broadcast_to(x, forces.shape)
+    start = eqx.tree_at(lambda m: (m.stribeck.Fs, m.stribeck.Fc), true,
+                        (1.1 * true.stribeck.Fs, 0.9 * true.stribeck.Fc))
+    mapped = fitting.fit_batch(start, tt, xx, forces)
+    vmapped = fitting.fit_batch(start, tt, xx, forces, vectorize=True)
+    assert mapped.status == vmapped.status == ["successful"] * 3
+    for name in mapped.names:
+        diff = np.abs(np.asarray(vmapped.params[name]) - np.asarray(mapped.params[name]))
+        assert np.all(diff <= 1e-3 * np.asarray(mapped.stderr[name])), name
+    # Different noise, different fits: the datasets were not mixed up.
+    assert len({float(f) for f in np.asarray(mapped.params["Fc"])}) == 3
+
+
 def test_monte_carlo_refit_spread_matches_stderr():
     # Tustin on strokes from 0.2 to 32 mm/s: cheap to compile, five smooth parameters of
     # which Vs, delta and sigma2 are correlated (the machinery is the same for all models).
