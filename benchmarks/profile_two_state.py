@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxfric import paper
-from jaxfric._inputs import make_motion
+from jaxfric._inputs import make_motion, reversal_bound
 
 
 try:
@@ -48,8 +48,10 @@ def _stages(model, t, x):
         s, reversal, x_prev, s_r = motion(p)
         return eqx.combine(p, static)._event_pass(x, s, reversal, x_prev, s_r)
 
-    def full(p):
-        return eqx.combine(p, static)._simulate(make_motion(t, x)).force
+    def full(p):  # as `jaxfric.simulate` runs it on concrete data
+        return eqx.combine(p, static)._simulate(make_motion(t, x, max_reversals=bound)).force
+
+    bound = reversal_bound(t, x)
 
     params, static = eqx.partition(model, eqx.is_inexact_array)
     cases = {

@@ -25,7 +25,9 @@ device (``jnp.asarray``) before timing; the Numba baseline gets NumPy arrays.
    and the Numba baseline (``benchmarks/numba_two_state.py``), on a mixed motion: a 1 mm
    sliding sine with presliding loops of 100 um and 20 um on top (about one reversal per
    0.36 s at 1 kHz sampling). The Numba and jaxfric forces are compared on it too.
-2. *Batch*: ``jax.jit(jax.vmap(simulate))`` over B trajectories (random phases) against
+2. *Batch*: ``jax.jit(jax.vmap(simulate))`` over B trajectories (random phases; with
+   ``max_reversals``, the static bound on the reversals that ``simulate`` computes itself
+   on concrete data, as the data are traced under ``vmap``) against
    ``simulate_numba_batch`` (``numba.prange`` over trajectories). Each B is compiled first;
    XLA's own memory analysis (arguments + outputs + temporaries) plus the host copies of
    the inputs give the footprint, and a B whose footprint exceeds ``--mem-budget-gb``
@@ -309,11 +311,19 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
     """Section 2: vmapped jaxfric against the Numba prange batch, per B."""
     model = paper.two_state()
     params = nbts.params_from_model(model)
-    batched = jax.jit(lambda m, T, X: jax.vmap(lambda t, x: jaxfric.simulate(m, t, x))(T, X))
     dtype = jnp.asarray(0.0).dtype
     rows = []
     rng = np.random.default_rng(7)
     for B in sizes_B:
+        T = np.tile(mixed_path(n)[0], (B, 1))  # one time grid for all
+        X = np.empty((B, n))
+        for j in range(B):
+            X[j] = mixed_path(n, rng=rng)[1]
+        # Under vmap the positions are traced, so the static bound on the reversals that
+        # `simulate` computes itself on concrete data is passed, as a user would.
+        bound = max(jaxfric.reversal_bound(T[j], X[j]) for j in range(B))
+        batched = jax.jit(lambda m, T, X, bound=bound: jax.vmap(
+            lambda t, x: jaxfric.simulate(m, t, x, max_reversals=bound))(T, X))
         spec = jax.ShapeDtypeStruct((B, n), dtype)
         compiled, t_lower, t_compile = _lower_compile(batched, model, spec, spec)
         xla_bytes = _xla_bytes(compiled)
@@ -333,10 +343,6 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
                                     f"{budget_bytes / 2**30:.1f} GiB")
         cases = {}
         if run_jax or run_numba:
-            T = np.tile(mixed_path(n)[0], (B, 1))  # one time grid for all
-            X = np.empty((B, n))
-            for j in range(B):
-                X[j] = mixed_path(n, rng=rng)[1]
             if run_jax:
                 Tj, Xj = jnp.asarray(T), jnp.asarray(X)
                 cases["jaxfric vmap"] = lambda c=compiled, T=Tj, X=Xj: c(model, T, X)

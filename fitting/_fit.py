@@ -36,6 +36,7 @@ experiments of one fit, and a custom JVP materialises the Jacobian once per eval
 parameters ``theta``, including those derived through a reparameterisation (``a..beta``).
 """
 
+import dataclasses
 import warnings
 from collections.abc import Iterable, Sequence
 from typing import Any
@@ -83,6 +84,19 @@ class _Problem(eqx.Module):
     template: Any
     layout: _params.Layout
     paper_shape: bool = eqx.field(static=True)
+    max_reversals: int | None = eqx.field(static=True, default=None)
+
+    def bounded(self, data: Dataset) -> "_Problem":
+        """This problem with a static bound on the reversals of `data` (stacked, concrete
+        arrays ``(..., n)``), which the two-state simulation uses to evaluate its reversal
+        terms on a short list (`jaxfric.simulate`, ``max_reversals``)."""
+        t, x = np.asarray(data.t), np.asarray(data.x)
+        v = None if data.v is None else np.asarray(data.v)
+        t2, x2 = t.reshape(-1, t.shape[-1]), x.reshape(-1, x.shape[-1])
+        v2 = None if v is None else v.reshape(-1, v.shape[-1])
+        bound = max(jaxfric.reversal_bound(t2[i], x2[i], None if v2 is None else v2[i])
+                    for i in range(t2.shape[0]))
+        return dataclasses.replace(self, max_reversals=bound)
 
     def model(self, y):
         return _params.from_vector(y, self.template, self.layout)
@@ -97,7 +111,7 @@ class _Problem(eqx.Module):
         return model
 
 
-def _simulate_stack(model, data: Dataset):
+def _simulate_stack(model, data: Dataset, max_reversals: int | None = None):
     """Force (N) and stack-overflow count for stacked datasets, arrays ``(D, n)``.
 
     `lax.map` (a loop), not `vmap`, over the D experiments of one fit: the simulation and
@@ -108,7 +122,8 @@ def _simulate_stack(model, data: Dataset):
 
     def one(d):
         t, x, v = d
-        out = jaxfric.simulate(model_, t, x, v, full_output=True)
+        out = jaxfric.simulate(model_, t, x, v, full_output=True,
+                               max_reversals=max_reversals)
         return out.force, out.overflow
 
     force, overflow = jax.lax.map(one, (data.t, data.x, data.v))
@@ -126,7 +141,7 @@ def _force_scale(data: Dataset) -> Array:
 def _forces(y, problem: _Problem, data: Dataset):
     """Model force ``(D, n)`` for the vector `y`, and the stack-overflow count (as a float,
     so that it can ride along through the custom JVP below)."""
-    force, overflow = _simulate_stack(problem.model(y), data)
+    force, overflow = _simulate_stack(problem.model(y), data, problem.max_reversals)
     return force, overflow.astype(force.dtype)
 
 
@@ -493,6 +508,7 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     through the paper's symbols).
     """
     solver = default_solver() if solver is None else solver
+    problem = problem.bounded(data)
     core = _solve(problem, y0, data, solver, max_steps)
     _warn_overflow(core)
     pred = tuple(core.prediction[i, : d.t.shape[0]] for i, d in enumerate(checked))
@@ -635,6 +651,7 @@ def fit_batch(
     stacked = stack(checked)
     # One dataset per fit: (B, 1, n).
     data = jax.tree.map(lambda a: a[:, None, :], stacked)
+    problem = problem.bounded(data)
     if devices is not None and len(devices) > 1:
         core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices),
                                        vectorize)

@@ -46,7 +46,7 @@ class MonteCarloResult(eqx.Module):
 @eqx.filter_jit
 def _predict(problem: _fit._Problem, ys: Array, data: Dataset):
     def one(y):
-        force, _ = _fit._simulate_stack(problem.model(y), data)
+        force, _ = _fit._simulate_stack(problem.model(y), data, problem.max_reversals)
         return force[0], _params.natural_vector(problem.user_model(y))
 
     return jax.vmap(one)(ys)
@@ -137,7 +137,8 @@ def monte_carlo(
     problem, y0 = _fit._problem(model, props, free, reparameterize)
     key_p, key_n = jax.random.split(key)
     ys = _draws(key_p, problem, y0, num, param_sigma)
-    force, natural = _predict(problem, ys, stack([data]))
+    stacked = stack([data])
+    force, natural = _predict(problem.bounded(stacked), ys, stacked)
     names = _params.natural_names(problem.user_model(y0))
     noisy = force + noise_sigma * jax.random.normal(key_n, force.shape, dtype=force.dtype)
 

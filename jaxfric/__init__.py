@@ -11,7 +11,11 @@ from . import (
     paper as paper,
 )
 from ._config import x64_enabled as x64_enabled
-from ._inputs import make_motion as make_motion, Motion as Motion
+from ._inputs import (
+    make_motion as make_motion,
+    Motion as Motion,
+    reversal_bound as reversal_bound,
+)
 from ._models._base import AbstractFrictionModel as AbstractFrictionModel, SimResult as SimResult
 from ._models.gms import GMS as GMS, GMSState as GMSState
 from ._models.lugre import LuGre as LuGre, LuGreState as LuGreState

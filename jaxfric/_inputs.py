@@ -6,6 +6,7 @@ See docs/algorithm.md section 1 for the rules (one direction signal, backward di
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from ._numerics import running_max
@@ -21,6 +22,9 @@ class Motion(eqx.Module):
     - `last_d`: direction of the last moving sample at or before ``n`` (0 before any motion).
     - `prev_last_d`: the same at ``n - 1`` (0 at ``n = 0``).
     - `x_prev`: ``x_{n-1}`` (``x_0`` at ``n = 0``): the reversal point when one happens at n.
+    - `max_reversals`: a static upper bound on the number of reversals (`reversal` true),
+      or ``None`` (up to ``n``). `TwoState` evaluates its reversal terms on a list of this
+      size rather than on every sample; `reversal_bound` computes one from concrete data.
     """
 
     t: Float[Array, " n"]
@@ -32,6 +36,7 @@ class Motion(eqx.Module):
     last_d: Float[Array, " n"]
     prev_last_d: Float[Array, " n"]
     x_prev: Float[Array, " n"]
+    max_reversals: int | None = eqx.field(static=True, default=None)
 
     @property
     def moving(self) -> Array:
@@ -50,7 +55,24 @@ def backward_velocity(t: Array, x: Array) -> Array:
     return jnp.where(dt > 0, dx / jnp.where(dt > 0, dt, 1.0), 0.0)
 
 
-def make_motion(t: Array, x: Array, v: Array | None = None) -> Motion:
+def reversal_bound(t, x, v=None) -> int:
+    """A static bound on the number of reversals of the motion ``(t, x[, v])`` (concrete
+    arrays; the same rule as `Motion.reversal`): the count, rounded up to a power of two
+    (at least 64, at most ``n``) so that similar motions share one compilation."""
+    t, x = np.asarray(t), np.asarray(x)
+    if v is None:
+        dt = np.diff(t, prepend=t[:1])
+        dx = np.diff(x, prepend=x[:1])
+        d = np.sign(np.where(dt > 0, dx, 0.0))
+    else:
+        d = np.sign(np.asarray(v))
+    moving = d[d != 0]
+    count = int(np.count_nonzero(moving[1:] != moving[:-1]))
+    return min(max(64, 1 << count.bit_length()), max(int(t.shape[0]), 1))
+
+
+def make_motion(t: Array, x: Array, v: Array | None = None,
+                max_reversals: int | None = None) -> Motion:
     """Build a `Motion` from 1-D arrays of equal length (shape checks are the caller's)."""
     if v is None:
         v = backward_velocity(t, x)
@@ -72,4 +94,5 @@ def make_motion(t: Array, x: Array, v: Array | None = None) -> Motion:
         last_d=last_d,
         prev_last_d=prev_last_d,
         x_prev=x_prev,
+        max_reversals=max_reversals,
     )

@@ -1,5 +1,6 @@
 """The one simulation entry point."""
 
+import operator
 import warnings
 
 import equinox as eqx
@@ -8,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike
 
-from ._inputs import make_motion
+from ._inputs import make_motion, reversal_bound
 from ._models._base import AbstractFrictionModel, SimResult
 
 
@@ -53,8 +54,18 @@ def _check_values(name: str, a) -> None:
 
 
 @eqx.filter_jit
-def _run(model: AbstractFrictionModel, t, x, v) -> SimResult:
-    return model._simulate(make_motion(t, x, v))
+def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None) -> SimResult:
+    return model._simulate(make_motion(t, x, v, max_reversals))
+
+
+def _has_reversal_list(model) -> bool:
+    """Whether `model` contains a `TwoState` (the one model that uses `max_reversals`)."""
+    from ._models.two_state import TwoState
+
+    def is_two_state(m):
+        return isinstance(m, TwoState)
+
+    return any(is_two_state(m) for m in jax.tree.leaves(model, is_leaf=is_two_state))
 
 
 def simulate(
@@ -64,6 +75,7 @@ def simulate(
     v: ArrayLike | None = None,
     *,
     full_output: bool = False,
+    max_reversals: int | None = None,
 ):
     """Friction force of `model` along a motion.
 
@@ -79,6 +91,11 @@ def simulate(
       you have them (a backward difference lags by half a sample).
     - `full_output`: return a `SimResult` (force, named parts, stack overflow count)
       instead of the force array.
+    - `max_reversals`: an upper bound on the number of direction reversals in the motion
+      (a Python int; static). `TwoState` evaluates its reversal terms on a list of this
+      size instead of on every sample. ``None``: computed from the data when they are
+      concrete (`jaxfric.reversal_bound`), else ``n`` (inside ``jit``/``vmap``: pass it for
+      speed). A bound below the true count gives NaN forces, never silently wrong ones.
 
     **Returns:** the friction force, N, one per sample (or a `SimResult`).
 
@@ -109,7 +126,14 @@ def simulate(
             i = int(np.argmax(dt <= 0)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     model = jax.tree.map(_strong, model)
-    result = _run(model, t, x, v)
+    if max_reversals is None and _has_reversal_list(model) and not any(
+            isinstance(a, jax.core.Tracer) for a in (t, x, v)):
+        max_reversals = reversal_bound(t, x, v)
+    if max_reversals is not None:
+        max_reversals = operator.index(max_reversals)
+        if max_reversals < 0:
+            raise ValueError(f"max_reversals must be >= 0, got {max_reversals}")
+    result = _run(model, t, x, v, max_reversals)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "

@@ -225,6 +225,34 @@ def test_no_recompilation(traces):
     assert len(traces) == 2
 
 
+def test_reversal_bound_and_max_reversals():
+    """`TwoState` evaluates its reversal terms on a list of ``max_reversals`` slots: the
+    bound `simulate` computes from concrete data (`reversal_bound`, at least the number of
+    reversals of `Motion.reversal`), the exact count, and ``n`` (inside ``jit``, where the
+    data are traced) give the same forces; a bound below the count gives NaN."""
+    T, X, V = _batch_paths()
+    model = paper.two_state()
+    for t, x, v in zip(T, X, V):
+        for vel in (None, v):
+            count = int(jnp.sum(jaxfric.make_motion(t, x, vel).reversal))
+            bound = jaxfric.reversal_bound(t, x, vel)
+            assert 0 < count <= bound <= t.shape[0]
+            ref = jaxfric.simulate(model, t, x, vel)
+            traced = jax.jit(lambda t, x, vel=vel: jaxfric.simulate(model, t, x, vel))(t, x)
+            exact = jaxfric.simulate(model, t, x, vel, max_reversals=count)
+            np.testing.assert_allclose(traced, ref, atol=ATOL, rtol=0)
+            np.testing.assert_allclose(exact, ref, atol=ATOL, rtol=0)
+            short = jaxfric.simulate(model, t, x, vel, max_reversals=count - 1)
+            assert np.all(np.isnan(short))
+    # A motion without reversals has a bound of its own; a negative bound is refused.
+    t = np.linspace(0.0, 1.0, 50)
+    assert jaxfric.reversal_bound(t, t * 1e-3) == 50  # min(64, n)
+    np.testing.assert_allclose(jaxfric.simulate(model, t, t * 1e-3, max_reversals=0),
+                               jaxfric.simulate(model, t, t * 1e-3), atol=ATOL, rtol=0)
+    with pytest.raises(ValueError, match="max_reversals"):
+        jaxfric.simulate(model, t, t * 1e-3, max_reversals=-1)
+
+
 def test_no_recompilation_for_weakly_typed_parameter(traces):
     """A leaf set with ``eqx.tree_at(..., jnp.asarray(20.0))`` is weakly typed; `simulate`
     strips the flag, so the edited model reuses the compiled program."""

@@ -297,25 +297,40 @@ class TwoState(AbstractFrictionModel):
         active, depth, popped_until = filled[:, 0], filled[:, 1], filled[:, 3]
 
         def entry(ref):
-            """(x, s) of the entries pushed at samples `ref` (-1: the zero state)."""
+            """(x, s) of the entries pushed at samples `ref` (-1: the zero state). Their
+            ``s`` is the rest value ``rest(prev_last_d)`` of the reversal (`s_r`), taken as
+            a direction times Fs rather than gathered from `s_r`: under ``jacfwd`` a float
+            gather carries every tangent."""
             r = jnp.maximum(ref, 0)
             return (
                 jnp.where(ref >= 0, motion.x_prev[r], motion.x[0]),
-                jnp.where(ref >= 0, s_r[r], 0.0),
+                self.stribeck.rest(jnp.where(ref >= 0, motion.prev_last_d[r], 0.0)),
             )
 
         # h of the entry pushed at reversal r is h(parent) + g_r (see `_push`); h of the
-        # entry in use is then the running sum of g over pushed entries minus those popped
-        # (entries dropped by wiping or overflow stay in: they are ancestors of the bottom).
-        x_p, s_p = entry(rec.parent)
-        den = s_r - s_p
-        g = jnp.where(
-            reversal, self.shape.pi(safe_div(motion.x_prev - x_p, den), self.stribeck.Fs) * den, 0.0
-        )
-        popped = rec.popped[:n]
-        g_popped = running_sum(jnp.where(popped >= 0, g[jnp.maximum(popped, 0)], 0.0))
-        h_e = running_sum(g) - jnp.where(
-            popped_until > 0, g_popped[jnp.maximum(popped_until - 1, 0)], 0.0
+        # entry in use is then the sum of g over the entries pushed so far minus those
+        # popped (entries dropped by wiping or overflow stay in: they are ancestors of the
+        # bottom). g is evaluated on the list of reversals only (`max_reversals` slots, a
+        # static bound; at most n), not on every sample.
+        limit = n if motion.max_reversals is None else motion.max_reversals
+        size = max(1, min(limit, n))
+        rank = running_sum(reversal.astype(jnp.int32))  # reversals at or before each sample
+        slot = jnp.where(reversal, rank - 1, size)
+        rev = jnp.zeros((size,), jnp.int32).at[slot].set(idx, mode="drop")  # their samples
+        valid = jnp.arange(size, dtype=jnp.int32) < rank[-1]
+        x_p, s_p = entry(rec.parent[rev])
+        s_rev = self.stribeck.rest(motion.prev_last_d[rev])
+        den = s_rev - s_p
+        xi_rev = safe_div(motion.x_prev[rev] - x_p, den)
+        g = jnp.where(valid, self.shape.pi(xi_rev, self.stribeck.Fs) * den, 0.0)
+        # The popped list (sample indices of pushes, in order) holds at most one entry
+        # per reversal; a push's place in the list of reversals is its rank - 1.
+        popped = rec.popped[:size]
+        g_popped = jnp.where(popped >= 0, g[jnp.maximum(rank[jnp.maximum(popped, 0)] - 1, 0)],
+                             0.0)
+        g_sum, g_popped_sum = running_sum(g), running_sum(g_popped)
+        h_e = jnp.where(rank > 0, g_sum[jnp.maximum(rank - 1, 0)], 0.0) - jnp.where(
+            popped_until > 0, g_popped_sum[jnp.maximum(popped_until - 1, 0)], 0.0
         )
         x_e, s_e = entry(active)
         f_h, _, gamma = self._branch(motion.x, s, x_e, h_e, s_e)
@@ -325,8 +340,10 @@ class TwoState(AbstractFrictionModel):
         )
         lag = linear_recurrence(a, b)
         viscous = self.sigma2 * motion.v
+        # A bound below the true count (only if given by hand) would drop reversals: NaN.
+        force = jnp.where(rank[-1] <= limit, f_h + lag + viscous, jnp.nan)
         return SimResult(
-            force=f_h + lag + viscous,
+            force=force,
             parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
             overflow=rec.overflow,
         )
