@@ -38,6 +38,15 @@ significant candidate is tried. When nothing is significant but the best score i
 ``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
 that candidate is tried too, and kept only if the refit's held-out improvement is
 consistent block by block (``t`` at least `min_t`).
+
+When no single effect holds up, two missing effects may each be hiding the other (each
+one's screen fits the other's residual with the wrong term). Every pair of candidates is
+then regressed together in the same linearised step; the best pairs (at most `_PAIRS`)
+that remove at least ``4*min_score`` of the held-out SSE, and ``min_score`` more than the
+best single effect, are each added together and refitted, with the same checks; of those
+that hold up, the one with the lower held-out error is kept, as one step. Each of the two
+is then ranked by its share within the pair (the held-out SSE it removes when added to the
+other), and the evidence says so.
 """
 
 import dataclasses
@@ -302,8 +311,9 @@ class Diagnosis:
             mark = "*" if c.significant else " "
             lines.append(f" {mark} {c.name:<20} score {c.score:7.3f}  t {c.t_stat:6.1f}  "
                          f"{c.evidence}")
-        for s in self.steps:
-            lines.append(f"+ {s.added[-1]:<20} RMSE {s.rmse:.4g} N (held out "
+        for before, s in zip([self.baseline, *self.steps], self.steps):
+            new = " + ".join(s.added[len(before.added):])
+            lines.append(f"+ {new:<20} RMSE {s.rmse:.4g} N (held out "
                          f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
         if not self.steps:
             lines.append("nothing significant to add")
@@ -353,6 +363,22 @@ def _consistency(ref, new, test, blocks) -> tuple[float, int]:
     return t_stat, int(per_block.size)
 
 
+def _normalised_columns(candidates, model, t, x, v, train):
+    """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
+    the training samples: a list of ``(columns, scale)``."""
+    base_model = model.base if isinstance(model, fx.WithEffects) else model
+    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
+    s = _signals(t, x, v, base_force,
+                 np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
+    out = []
+    for c in candidates:
+        B = _columns(c.effect, s)
+        scale = np.linalg.norm(B[train], axis=0)
+        scale = np.where(scale > 0, scale, 1.0)
+        out.append((B / scale, scale))
+    return out
+
+
 def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_score, min_t):
     """Re-test the leading candidates together: with two effects hidden, each one's screen
     sees the other's residual as noise, which can make a real effect look inconsistent
@@ -363,15 +389,7 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_
     lead = [c for c in candidates[:3] if c.score >= min_score]
     if len(lead) < 2:
         return
-    base_model = model.base if isinstance(model, fx.WithEffects) else model
-    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
-    s = _signals(t, x, v, base_force,
-                 np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
-    cols = []
-    for c in lead:
-        B = _columns(c.effect, s)
-        scale = np.linalg.norm(B[train], axis=0)
-        cols.append(B / np.where(scale > 0, scale, 1.0))
+    cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train)]
 
     def residual(blocks_used):
         A = np.concatenate([J, *blocks_used], axis=1)
@@ -388,6 +406,55 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_
             c.t_stat = t_joint
             c.evidence += (f"; consistent when fitted together with {others} "
                            f"(t = {t_joint:.1f} over {n_blocks} held-out blocks)")
+
+
+@dataclasses.dataclass
+class _Pair:
+    """Two candidates regressed together: `score` (held-out SSE share removed by both,
+    normalised as a single screen's), `shares` (each one's part: the SSE removed by adding
+    it to the other), `effects` (with the joint regression's values)."""
+
+    score: float
+    candidates: tuple[Candidate, Candidate]
+    shares: tuple[float, float]
+    effects: tuple[fx.AbstractEffect, fx.AbstractEffect]
+
+
+def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pair]:
+    """Every pair of screened candidates regressed together with the model's Jacobian (the
+    single screens' Gauss-Newton step with two effects), best pair first. Two missing
+    effects whose terms are partly alike (an asymmetry and a position dependence along
+    strokes that run in one direction over one part of the travel) each screen poorly
+    alone, as each one's fit is bent by the other; together they can explain much more
+    than either."""
+    if len(candidates) < 2:
+        return []
+    cols = _normalised_columns(candidates, model, t, x, v, train)
+
+    def solve(used):
+        A = np.concatenate([J, *(cols[i][0] for i in used)], axis=1)
+        coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
+        return resid - A @ coef, coef[J.shape[1]:]
+
+    def sse(r):
+        return float(np.sum(r[test] ** 2))
+
+    ref, _ = solve(())
+    norm = max(sse(ref), float(np.sum(resid[test] ** 2)), 1e-300)
+    alone = [sse(solve((i,))[0]) for i in range(len(candidates))]
+    pairs = []
+    for i, j in itertools.combinations(range(len(candidates)), 2):
+        full, coef = solve((i, j))
+        q = cols[i][0].shape[1]
+        w_i, w_j = coef[:q] / cols[i][1], coef[q:] / cols[j][1]
+        pairs.append(_Pair(
+            score=(sse(ref) - sse(full)) / norm,
+            candidates=(candidates[i], candidates[j]),
+            shares=((alone[j] - sse(full)) / norm, (alone[i] - sse(full)) / norm),
+            effects=(_with_linear(candidates[i].effect, w_i),
+                     _with_linear(candidates[j].effect, w_j))))
+    pairs.sort(key=lambda p: p.score, reverse=True)
+    return pairs
 
 
 def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
@@ -446,6 +513,9 @@ def _code(effect) -> str:
 
 #: Most warm restarts of a refit that stops at its step limit (see `_step`).
 _RESTARTS = 5
+
+#: Most pairs of effects tried together when no single effect holds up (see `diagnose`).
+_PAIRS = 2
 
 
 def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=(),
@@ -553,9 +623,12 @@ def diagnose(
             # effect confounding the linear screen. Try it first; the refit must confirm
             # it block by block.
             tries = [ranking[0], *tries]
-        for chosen in tries:
-            log(f"adding {chosen.name} and refitting ...")
-            trial, trial_resid = _step(current + chosen.effect, [*added, chosen.name], t, x,
+        def refit(new_effects, names_new, current=current, resid=resid,
+                  best_holdout=best_holdout):
+            """Add `new_effects`, refit (from the fitted model and from the starting model
+            with the effects; the better training fit is kept). Returns the step, its
+            residual, whether it removed enough held-out SSE, and its consistency."""
+            trial, trial_resid = _step(current + new_effects, [*added, *names_new], t, x,
                                        v, F, train, test, masks, log, max_steps, fixed,
                                        restart=True)
             # The fitted model can sit where it compensated for the missing effect (a
@@ -563,8 +636,8 @@ def diagnose(
             # the starting model with the effects, and keep the better training fit.
             effects = tuple(getattr(current, "effects", ()))
             plain = model.base if isinstance(model, fx.WithEffects) else model
-            fresh, fresh_resid = _step(plain + (*effects, chosen.effect),
-                                       [*added, chosen.name], t, x, v, F, train, test, masks,
+            fresh, fresh_resid = _step(plain + (*effects, *new_effects),
+                                       [*added, *names_new], t, x, v, F, train, test, masks,
                                        log, max_steps, fixed, restart=True)
             if float(fresh.fit.rmse) < float(trial.fit.rmse):
                 trial, trial_resid = fresh, fresh_resid
@@ -572,20 +645,66 @@ def diagnose(
             # and an effect not yet shown consistent must now be so, block by block.
             enough = trial.rmse_holdout**2 < (1.0 - 0.5 * min_score) * best_holdout**2
             t_refit, n_blocks = _consistency(resid, trial_resid, test, block)
+            return trial, trial_resid, enough, t_refit, n_blocks
+
+        for chosen in tries:
+            log(f"adding {chosen.name} and refitting ...")
+            trial, trial_resid, enough, t_refit, n_blocks = refit((chosen.effect,),
+                                                                  [chosen.name])
             if enough and (chosen.significant or t_refit >= min_t):
                 if not chosen.significant:
                     chosen.significant, chosen.t_stat = True, t_refit
                     chosen.evidence += (f"; confirmed by the joint refit, consistent over "
                                         f"{n_blocks} held-out blocks (t = {t_refit:.1f})")
-                accepted = chosen
+                accepted = [chosen]
                 break
             log(f"  {chosen.name} did not lower the held-out error enough, or not "
                 "consistently; not added")
             chosen.significant = False
+        if accepted is None and len(added) + 2 <= max_added:
+            # No single effect holds up: two effects can each be hidden by the other. Try
+            # the best pairs that explain clearly more together than any one alone.
+            best_single = max((c.score for c in ranking), default=0.0)
+            pairs = [p for p in _pair_screen(ranking, current, t, x, v_arr, resid, J,
+                                             train, test)[:_PAIRS]
+                     if p.score >= 4 * min_score and p.score >= best_single + min_score]
+            tried = []
+            for pair in pairs:
+                names_pair = [c.name for c in pair.candidates]
+                log(f"adding {' and '.join(names_pair)} together (they explain "
+                    f"{100 * pair.score:.3g} % of the held-out residual jointly) and "
+                    "refitting ...")
+                out = refit(pair.effects, names_pair)
+                log(f"  held-out RMSE {out[0].rmse_holdout:.4g} N (was {best_holdout:.4g} "
+                    f"N), consistency over the held-out blocks t = {out[3]:.1f}")
+                if out[2] and out[3] >= min_t:
+                    tried.append((out, pair))
+            if tried:
+                # Of the pairs that hold up (two effects with partly alike terms can
+                # compete, e.g. an offset and an asymmetry), keep the lower held-out error.
+                (trial, trial_resid, _, t_refit, n_blocks), pair = min(
+                    tried, key=lambda o: o[0][0].rmse_holdout)
+                alone = [(c.score, c.t_stat) for c in pair.candidates]
+                for c, share, (score, t_stat), (other_score, _), other, effect in zip(
+                        pair.candidates, pair.shares, alone, alone[::-1],
+                        pair.candidates[::-1], pair.effects):
+                    c.evidence = (
+                        f"{effect.describe()}; found together with {other.name}: both "
+                        f"explain {100 * pair.score:.3g} % of the held-out residual "
+                        f"variance, {other.name} alone {100 * other_score:.3g} %, so adding "
+                        f"{c.name} to it removes {100 * share:.3g} % (alone "
+                        f"{100 * score:.3g} %, t = {t_stat:.1f}); confirmed by the joint "
+                        f"refit of both, consistent over {n_blocks} held-out blocks "
+                        f"(t = {t_refit:.1f})")
+                    c.effect, c.code = effect, _code(effect)
+                    c.score, c.significant, c.t_stat = float(share), True, t_refit
+                ranking.sort(key=lambda c: c.score, reverse=True)
+                accepted = sorted(pair.candidates, key=lambda c: c.score, reverse=True)
+                trial.added = [*added, *(c.name for c in accepted)]
         if accepted is None:
             break
         steps.append(trial)
-        added.append(accepted.name)
+        added.extend(c.name for c in accepted)
         current, resid, best_holdout = trial.fit.model, trial_resid, trial.rmse_holdout
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=test,
                      model=current, model_name=model_name or type(model).__name__)

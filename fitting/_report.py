@@ -47,8 +47,9 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
               c.evidence] for c in d.candidates]
     steps = [["baseline", f"{d.baseline.rmse:.4g}", f"{d.baseline.rmse_holdout:.4g}",
               f"{100 * d.baseline.rel_error:.3g} %"]]
-    steps += [[f"+ {s.added[-1]}", f"{s.rmse:.4g}", f"{s.rmse_holdout:.4g}",
-               f"{100 * s.rel_error:.3g} %"] for s in d.steps]
+    steps += [[f"+ {' + '.join(s.added[len(before.added):])}", f"{s.rmse:.4g}",
+               f"{s.rmse_holdout:.4g}", f"{100 * s.rel_error:.3g} %"]
+              for before, s in zip([d.baseline, *d.steps], d.steps)]
     code = "".join(f"<li><code>{html.escape(c.code)}</code></li>" for c in d.candidates
                    if c.name in d.final.added)
     parts = [
