@@ -195,6 +195,14 @@ class _Core(eqx.Module):
     nrmse: Array
     r2: Array
     condition_number: Array
+    # For the `FitResult`, computed in the same compiled call (run op by op, they cost
+    # the first fit of a session a few dozen small compilations):
+    model: Any  # the fitted model as the user gave it (`PaperShape` if it had one)
+    fit_model: Any  # the fitted model in the fit representation
+    params: tuple[Array, ...]  # `natural` split into its entries
+    stderr: tuple[Array, ...]
+    corr: Array
+    corr_fit: Array
 
 
 def _covariance(jac, resid, mask, n_obs):
@@ -287,19 +295,29 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     f_range = jnp.max(jnp.where(observed, data.F, -jnp.inf)) - jnp.min(
         jnp.where(observed, data.F, jnp.inf)
     )
+    natural = natural_fn(y)
+    cov_natural = g @ cov_y @ g.T
+    cov_fit = g_fit @ cov_y @ g_fit.T
+    sd = jnp.sqrt(jnp.diagonal(cov_natural))
     return _Core(
         y=y,
         result=result,
         num_steps=sol.stats["num_steps"],
         prediction=force,
         overflow=overflow,
-        natural=natural_fn(y),
-        cov_natural=g @ cov_y @ g.T,
-        cov_fit=g_fit @ cov_y @ g_fit.T,
+        natural=natural,
+        cov_natural=cov_natural,
+        cov_fit=cov_fit,
         rmse=rmse,
         nrmse=rmse / f_range,
         r2=1.0 - jnp.sum(err**2) / ss_tot,
         condition_number=cond,
+        model=problem.user_model(y),
+        fit_model=problem.model(y),
+        params=tuple(natural[i] for i in range(natural.shape[0])),
+        stderr=tuple(sd[i] for i in range(sd.shape[0])),
+        corr=_correlation(cov_natural),
+        corr_fit=_correlation(cov_fit),
     )
 
 
@@ -443,36 +461,24 @@ def _problem_from_fit(fit_model, props, free, paper_shape: bool):
     return problem, _params.to_vector(fit_model, layout)
 
 
-@eqx.filter_jit
-def _assemble_arrays(problem: _Problem, core: _Core):
-    """The arrays of a `FitResult` from solver arrays (batched cores too), in one compiled
-    call: run op by op, the first fit of a session compiled some 25 small kernels here."""
-    batched = core.y.ndim == 2
-    y_one = core.y[0] if batched else core.y  # names and structure do not depend on y
-    model = jax.vmap(problem.user_model)(core.y) if batched else problem.user_model(core.y)
-    sd = jnp.sqrt(jnp.diagonal(core.cov_natural, axis1=-2, axis2=-1))
-    k = core.natural.shape[-1]
-    return {"model": model, "user_one": problem.user_model(y_one),
-            "fit_one": problem.model(y_one),
-            "natural": tuple(core.natural[..., i] for i in range(k)),
-            "sd": tuple(sd[..., i] for i in range(k)),
-            "corr": _correlation(core.cov_natural), "corr_fit": _correlation(core.cov_fit)}
-
-
 def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResult:
     """Turn solver arrays into a `FitResult` (works on batched cores too)."""
     layout = problem.layout
-    out = _assemble_arrays(problem, core)
-    names = _params.natural_names(out["user_one"])
+    batched = core.y.ndim == 2
+
+    def first(model):  # names and structure do not depend on the values
+        return jax.tree.map(lambda a: np.asarray(a)[0], model) if batched else model
+
+    names = _params.natural_names(first(core.model))
     leaf_free = np.asarray(layout.leaf_free)
     return FitResult(
-        model=out["model"],
-        params=dict(zip(names, out["natural"])),
-        stderr=dict(zip(names, out["sd"])),
+        model=core.model,
+        params=dict(zip(names, core.params)),
+        stderr=dict(zip(names, core.stderr)),
         cov=core.cov_natural,
-        corr=out["corr"],
+        corr=core.corr,
         cov_fit=core.cov_fit,
-        corr_fit=out["corr_fit"],
+        corr_fit=core.corr_fit,
         prediction=prediction,
         residuals=residuals,
         rmse=core.rmse,
@@ -483,7 +489,7 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResul
         num_steps=core.num_steps,
         overflow=core.overflow,
         names=names,
-        fit_names=_params.natural_names(out["fit_one"]),
+        fit_names=_params.natural_names(first(core.fit_model)),
         free=tuple(n for n, f in zip(layout.names, leaf_free) if f),
     )
 
@@ -511,9 +517,12 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     problem = problem.bounded(data)
     core = _solve(problem, y0, data, solver, max_steps)
     _warn_overflow(core)
-    pred = tuple(core.prediction[i, : d.t.shape[0]] for i, d in enumerate(checked))
-    resid = tuple(p - jnp.asarray(d.F) for p, d in zip(pred, checked))
-    return _assemble(problem, core, pred, resid), problem.model(core.y)
+    # Sliced and subtracted in NumPy: op by op in JAX, each new length compiles kernels.
+    force = np.asarray(core.prediction)
+    pred = [force[i, : d.t.shape[0]] for i, d in enumerate(checked)]
+    resid = tuple(jnp.asarray(p - np.asarray(d.F)) for p, d in zip(pred, checked))
+    pred = tuple(jnp.asarray(p) for p in pred)
+    return _assemble(problem, core, pred, resid), core.fit_model
 
 
 def fit_datasets(
@@ -658,8 +667,9 @@ def fit_batch(
     else:
         core = _solve_batch(problem, y0, data, solver, max_steps, vectorize)
     _warn_overflow(core)
-    pred = core.prediction[:, 0, :]
-    return _assemble(problem, core, pred, pred - stacked.F)
+    pred = np.asarray(core.prediction)[:, 0, :]  # NumPy: see `_fit_stacked`
+    return _assemble(problem, core, jnp.asarray(pred),
+                     jnp.asarray(pred - np.asarray(stacked.F)))
 
 
 def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize):
