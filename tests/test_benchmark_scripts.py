@@ -1,9 +1,9 @@
-"""The profiling script of benchmarks/ runs and writes what it prints (a smoke test on a
-short motion; its timings are not checked, performance goals live in the benchmarks)."""
+"""The profiling scripts of benchmarks/ run and write what they print (smoke tests on
+short motions; their timings are not checked, performance goals live in the benchmarks)."""
 
 import json
 
-from benchmarks import profile_two_state
+from benchmarks import fit_compile, profile_two_state
 
 
 def test_profile_two_state_runs_and_writes_json(tmp_path, capsys):
@@ -20,3 +20,16 @@ def test_profile_two_state_runs_and_writes_json(tmp_path, capsys):
     assert abs(rows[1]["stage_ns_per_sample"]
                - (rows[1]["ns_per_sample"] - rows[0]["ns_per_sample"])) < 1e-9
     assert rows[3]["stage_ns_per_sample"] is None
+
+
+def test_fit_compile_runs_and_writes_json(tmp_path, capsys):
+    out = tmp_path / "compile.json"
+    fit_compile.main(["--n", "2000", "--batch", "2", "--json", str(out)])
+    printed = capsys.readouterr().out
+    data = json.loads(out.read_text())
+    calls = data["calls"]
+    assert len(calls) == 3 and all(name in printed for name in calls)
+    assert all(c["wall_s"] > 0 and c["compilations"] >= 0 for c in calls.values())
+    # The second, identical fit reuses everything the first one compiled.
+    _, again, _ = calls.values()
+    assert again["compilations"] == 0, again["events"]
