@@ -75,11 +75,13 @@ Example::
                              param_sigma=res, refit=False)
     mc.force_q05, mc.force_q95                      # prediction band from the fit's covariance
 
-**Compilation.** Each distinct (model structure, data shape, solver) compiles once per
-process: about 10-20 s for a two-state fit and 30 s for a vmapped batch on a 2-core CPU,
-seconds for Tustin/LuGre/GMS; further calls with the same shapes run in well under a second
-to a few seconds. Changing the free set, the starting values or the weights does not
-recompile (see `fitting._fit`).
+**Compilation.** Each distinct (model structure, data shape, solver, `max_steps`) compiles
+once per process: 5-7 s for the first two-state fit or batch on a 2-core CPU (see
+BENCHMARKS.md and `benchmarks/fit_compile.py`), seconds for Tustin/LuGre/GMS; further
+calls with the same shapes run in well under a second to a few seconds. Changing the free
+set, the starting values or the weights does not recompile (see `fitting._fit`); data
+whose number of reversals falls in another power-of-two bucket (up to 64, 128, 256, ...)
+does, as the two-state simulation sizes its list of reversals by it.
 """
 
 from ._data import Dataset as Dataset
