@@ -341,9 +341,11 @@ class TwoState(AbstractFrictionModel):
         lag = linear_recurrence(a, b)
         viscous = self.sigma2 * motion.v
         # A bound below the true count (only if given by hand) would drop reversals: NaN.
-        force = jnp.where(rank[-1] <= limit, f_h + lag + viscous, jnp.nan)
+        fits = rank[-1] <= limit
+        f_h = jnp.where(fits, f_h, jnp.nan)
+        lag = jnp.where(fits, lag, jnp.nan)
         return SimResult(
-            force=force,
+            force=f_h + lag + viscous,
             parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
             overflow=rec.overflow,
         )
