@@ -29,11 +29,9 @@ from jaxfric import paper
 
 
 try:
-    from benchmarks.motions import mixed_path
-    from benchmarks.throughput import _perturbed_start, _synthetic
+    from benchmarks.motions import mixed_path, perturbed_start, synthetic_force
 except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
-    from motions import mixed_path
-    from throughput import _perturbed_start, _synthetic
+    from motions import mixed_path, perturbed_start, synthetic_force
 
 
 class _Log(logging.Handler):
@@ -80,14 +78,14 @@ def main(argv=None) -> None:
     n = int(args.n)
 
     truth = paper.two_state()
-    start = _perturbed_start(truth)
+    start = perturbed_start(truth)
     t, x = mixed_path(n)
-    F = _synthetic(truth, t, x, np.random.default_rng(1))
+    F = synthetic_force(truth, t, x, np.random.default_rng(1))
     rng = np.random.default_rng(3)
     pairs = [mixed_path(1000, dt=4e-3, rng=rng) for _ in range(args.batch)]
     T = np.stack([p[0] for p in pairs])
     X = np.stack([p[1] for p in pairs])
-    FB = np.stack([_synthetic(truth, T[i], X[i], rng) for i in range(args.batch)])
+    FB = np.stack([synthetic_force(truth, T[i], X[i], rng) for i in range(args.batch)])
 
     log = _Log()
     logger = logging.getLogger("jax")

@@ -1,7 +1,11 @@
-"""The benchmark motions (SI units: t in s, x in m), shared by the benchmark scripts
-without importing the optional Numba baseline."""
+"""The benchmark motions and fit data (SI units: t in s, x in m, F in N), shared by the
+benchmark scripts without importing the optional Numba baseline."""
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
+
+import jaxfric
 
 
 UM = 1e-6
@@ -22,3 +26,21 @@ def mixed_path(n: int, dt: float = 1e-3, rng: np.random.Generator | None = None)
         + amp[2] * 20 * UM * np.sin(2 * np.pi * 4.1 * t + ph[2])
     )
     return t, x
+
+
+def perturbed_start(model):
+    """The paper model with 7 of its 12 parameters moved by 4-50 % (the fits' start)."""
+    st, sh = model.stribeck, model.shape
+    return eqx.tree_at(
+        lambda m: (m.stribeck.Fs, m.stribeck.Fc, m.stribeck.Vs, m.stribeck.delta, m.sigma2,
+                   m.C, m.shape.l1),
+        model,
+        tuple(jnp.asarray(v) for v in (1.04 * st.Fs, 0.96 * st.Fc, 1.2 * st.Vs,
+                                       1.1 * st.delta, 0.9 * model.sigma2, 1.5 * model.C,
+                                       1.1 * sh.l1)),
+    )
+
+
+def synthetic_force(model, t, x, rng, noise=0.05):
+    """Force of `model` (N) along ``(t, x)`` plus Gaussian noise of `noise` N."""
+    return np.asarray(jaxfric.simulate(model, t, x)) + noise * rng.standard_normal(t.shape)

@@ -97,10 +97,10 @@ from jaxfric import paper
 
 try:
     from benchmarks import numba_two_state as nbts
-    from benchmarks.motions import mixed_path, UM
+    from benchmarks.motions import mixed_path, perturbed_start, synthetic_force, UM
 except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     import numba_two_state as nbts
-    from motions import mixed_path, UM
+    from motions import mixed_path, perturbed_start, synthetic_force, UM
 
 
 REPO = Path(__file__).resolve().parents[1]
@@ -405,30 +405,12 @@ def bench_grad(sizes, repeats, log) -> dict:
     return {"rows": rows}
 
 
-def _perturbed_start(model):
-    """The paper model with 7 of its 12 parameters moved by 4-50 % (the fit's start)."""
-    st, sh = model.stribeck, model.shape
-    return eqx.tree_at(
-        lambda m: (m.stribeck.Fs, m.stribeck.Fc, m.stribeck.Vs, m.stribeck.delta, m.sigma2,
-                   m.C, m.shape.l1),
-        model,
-        tuple(jnp.asarray(v) for v in (1.04 * st.Fs, 0.96 * st.Fc, 1.2 * st.Vs,
-                                       1.1 * st.delta, 0.9 * model.sigma2, 1.5 * model.C,
-                                       1.1 * sh.l1)),
-    )
-
-
-def _synthetic(model, t, x, rng, noise=0.05):
-    """Force of `model` plus Gaussian noise of `noise` N."""
-    return np.asarray(jaxfric.simulate(model, t, x)) + noise * rng.standard_normal(t.shape)
-
-
 def bench_lm(n, repeats, log) -> dict:
     """Section 5: one Levenberg-Marquardt iteration from fits with two `LM_STEPS` limits."""
     truth = paper.two_state()
     t, x = mixed_path(n)
-    F = _synthetic(truth, t, x, np.random.default_rng(1))
-    start = _perturbed_start(truth)
+    F = synthetic_force(truth, t, x, np.random.default_rng(1))
+    start = perturbed_start(truth)
     out = {}
 
     def fit(steps):
@@ -463,7 +445,7 @@ def bench_lm(n, repeats, log) -> dict:
 def bench_fit_batch(sizes_B, n, max_steps, repeats, log) -> dict:
     """Section 6: fitting.fit_batch over B small datasets, time per dataset."""
     truth = paper.two_state()
-    start = _perturbed_start(truth)
+    start = perturbed_start(truth)
     rng = np.random.default_rng(3)
     rows = []
     compare_B = sizes_B[-2] if len(sizes_B) > 1 else sizes_B[0]
@@ -471,7 +453,7 @@ def bench_fit_batch(sizes_B, n, max_steps, repeats, log) -> dict:
         pairs = [mixed_path(n, dt=4e-3, rng=rng) for _ in range(B)]
         T = np.stack([p[0] for p in pairs])
         X = np.stack([p[1] for p in pairs])
-        F = np.stack([_synthetic(truth, T[i], X[i], rng) for i in range(B)])
+        F = np.stack([synthetic_force(truth, T[i], X[i], rng) for i in range(B)])
         out = {}
 
         def run(T=T, X=X, F=F, out=out, vectorize=False):
