@@ -8,7 +8,8 @@ Structure, chosen for speed and clean gradients:
   block of samples at once (`_event_loop`), and records per event the entry in use, the
   parent of a pushed entry and the entries popped;
 * everything smooth is computed from those records, vectorised and differentiable: the
-  branch-start forces ``h`` as a running sum over pushes minus pops, ``F_h`` from the
+  branch-start forces ``h`` as prefix sums over pushes minus pops, evaluated on the list
+  of reversals only (``Motion.max_reversals`` slots, a static bound), ``F_h`` from the
   entry in use (Eq. 32), and ``F_l`` as a linear recurrence (exact decay).
 
 ``TwoState.step`` composes the same helpers (`_push`, `_close`, `_branch`) for one sample,
