@@ -7,7 +7,12 @@ state. This script says what that first call is made of: it runs `fitting.fit` (
 the line of jaxfric/fitting that asked for it), the tracing of the solve, and the wall
 time of each call. Run it in a fresh process:
 
-    python benchmarks/fit_compile.py [--n 10000] [--batch 4] [--json OUT]
+    python benchmarks/fit_compile.py [--n 10000] [--batch 4] [--warm-cache] [--json OUT]
+
+With ``--warm-cache`` the same calls are then run twice more, each in a new process that
+shares a fresh persistent compilation cache folder (`jaxfric.enable_compilation_cache`,
+what the ``jaxfric`` command turns on): the first fills it, the second is reported. (The
+in-process run is cold unless JAX_COMPILATION_CACHE_DIR is set; its JSON says which.)
 
 Same data as the throughput script (the paper's two-state model on the mixed motion plus
 0.05 N noise, started 4-50 % off; batch datasets of 1000 samples at 4 ms).
@@ -18,13 +23,18 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import subprocess
+import sys
+import tempfile
 import time
 import traceback
+from pathlib import Path
 
 import jax
 import numpy as np
 
 import fitting
+import jaxfric
 from jaxfric import paper
 
 
@@ -74,8 +84,13 @@ def main(argv=None) -> None:
     parser.add_argument("--n", type=float, default=1e4, help="samples of the single fit")
     parser.add_argument("--batch", type=int, default=4, help="datasets of the batch fit")
     parser.add_argument("--json", help="write the results here")
+    parser.add_argument("--warm-cache", action="store_true",
+                        help="also time the calls in a new process with a warm disk cache")
+    parser.add_argument("--cache-dir", help=argparse.SUPPRESS)  # used by --warm-cache
     args = parser.parse_args(argv)
     n = int(args.n)
+    if args.cache_dir:
+        jaxfric.enable_compilation_cache(args.cache_dir)
 
     truth = paper.two_state()
     start = perturbed_start(truth)
@@ -109,6 +124,27 @@ def main(argv=None) -> None:
         logger.setLevel(saved[0])
         logger.propagate = saved[1]
 
+    cache = jax.config.jax_compilation_cache_dir or None
+    print(f"this process, disk cache: {cache or 'none'}")
+    _table(results)
+    first = next(iter(results.values()))
+    print("\nCompilations of the first fit:")
+    for e in first["events"]:
+        if e["kind"] == "compile":
+            print(f"  {e['s']:7.3f} s  {e['what']:<40} {e['where']}")
+    out = {"meta": {"n": n, "batch": args.batch, "jax": jax.__version__, "cache_dir": cache},
+           "calls": results}
+    if args.warm_cache:
+        out["warm_cache"] = _warm(argv_n=["--n", str(n), "--batch", str(args.batch)])
+        print("\nA new process with a warm disk cache (filled by one run before it):")
+        _table(out["warm_cache"])
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
+        print(f"\nwrote {args.json}")
+
+
+def _table(results) -> None:
     print(f"{'call':<58} {'wall s':>7} {'compilations':>12} {'compile s':>9} "
           f"{'trace s':>7}  largest compilation")
     for name, r in results.items():
@@ -116,16 +152,17 @@ def main(argv=None) -> None:
         largest = f"{big['what']} {big['s']:.2f} s ({big['where']})" if big else "-"
         print(f"{name:<58} {r['wall_s']:7.2f} {r['compilations']:12d} {r['compile_s']:9.2f} "
               f"{r['trace_s']:7.2f}  {largest}")
-    first = next(iter(results.values()))
-    print("\nCompilations of the first fit:")
-    for e in first["events"]:
-        if e["kind"] == "compile":
-            print(f"  {e['s']:7.3f} s  {e['what']:<40} {e['where']}")
-    if args.json:
-        meta = {"n": n, "batch": args.batch, "jax": jax.__version__}
-        with open(args.json, "w") as f:
-            json.dump({"meta": meta, "calls": results}, f, indent=1)
-        print(f"\nwrote {args.json}")
+
+
+def _warm(argv_n) -> dict:
+    """Run this script twice in new processes sharing a new cache folder; the second's
+    calls. (Compilations loaded from the cache are still logged, with their load time.)"""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, __file__, *argv_n, "--cache-dir", str(Path(tmp) / "cache")]
+        for run in ("fill", "warm"):
+            js = Path(tmp) / f"{run}.json"
+            subprocess.run([*cmd, "--json", str(js)], check=True, capture_output=True)
+        return json.loads(js.read_text())["calls"]
 
 
 if __name__ == "__main__":

@@ -69,7 +69,11 @@ def write_json_atomic(path: str, obj) -> None:
 
 
 def _progress_solver(log, every_s: float = 1.0):
-    """The default LM solver, printing step and cost at most every `every_s` seconds."""
+    """The default LM solver, printing step and cost at most every `every_s` seconds.
+
+    The printing is a host callback inside the compiled solve, and JAX does not keep
+    programs with host callbacks in its disk cache (`jaxfric.enable_compilation_cache`):
+    so `run_fit` uses this only when a person is watching (stdout is a terminal)."""
     last = [time.perf_counter()]
     start = last[0]
 
@@ -149,8 +153,9 @@ def run_fit(args) -> int:
     log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
     t0 = time.perf_counter()
+    watched = not args.quiet and sys.stdout.isatty()
     res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps,
-               solver=_progress_solver(log))
+               solver=_progress_solver(log) if watched else None)
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
         f"RMSE {float(res.rmse):.4g} N, NRMSE {float(res.nrmse):.4g}, R2 {float(res.r2):.4f}")

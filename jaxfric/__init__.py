@@ -10,7 +10,10 @@ from . import (
     effects as effects,
     paper as paper,
 )
-from ._config import x64_enabled as x64_enabled
+from ._config import (
+    enable_compilation_cache as enable_compilation_cache,
+    x64_enabled as x64_enabled,
+)
 from ._inputs import (
     make_motion as make_motion,
     Motion as Motion,

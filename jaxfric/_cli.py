@@ -123,6 +123,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="jaxfric",
         description="Differentiable dynamic friction models (SI units: s, m, m/s, N).",
+        epilog="Compiled programs are kept in ~/.cache/jaxfric/xla, so a second run of the "
+               "same fit skips most of its compilation; set JAXFRIC_CACHE_DIR to use another "
+               "folder, or to an empty value to turn the cache off.",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser(
@@ -200,7 +203,10 @@ def main(argv=None) -> int:
     p.set_defaults(func=_diagnose)
 
     args = parser.parse_args(argv)
+    from ._config import enable_compilation_cache
     from .data import DataError
+
+    enable_compilation_cache()
 
     try:
         return args.func(args)

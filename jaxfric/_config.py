@@ -7,9 +7,14 @@ variable ``JAXFRIC_NO_X64`` is set to a non-empty value other than ``0``. The sw
 global to JAX (it is how JAX works), so import jaxfric before creating any JAX arrays.
 Everything in jaxfric also runs in float32 if x64 is left off; BENCHMARKS.md reports how
 much accuracy that costs.
+
+Compiled programs can be kept on disk between processes (`enable_compilation_cache`):
+the ``jaxfric`` command does it by default, the library only when asked.
 """
 
 import os
+import warnings
+from pathlib import Path
 
 import jax
 
@@ -26,3 +31,48 @@ if _want_x64():
 def x64_enabled() -> bool:
     """Whether JAX currently computes in 64-bit by default."""
     return bool(jax.config.jax_enable_x64)
+
+
+def default_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/jaxfric/xla``, or ``~/.cache/jaxfric/xla``."""
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxfric" / "xla"
+
+
+def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
+    """Keep compiled programs on disk, so that a new process skips their compilation.
+
+    A fit compiles its solver for seconds on a CPU (benchmarks/NOTES.md, "Fits"); with the
+    cache, a later process that runs the same fit (same model, free parameters, data
+    shape and solver settings) loads it instead. This is JAX's persistent compilation
+    cache (``jax_compilation_cache_dir``); JAX keys it by the program, the JAX version
+    and the device, and by default stores only programs that took at least a second.
+
+    `path`: the folder (created if missing). Without one: the environment variable
+    ``JAXFRIC_CACHE_DIR`` if set (empty or ``0`` disables the cache), else
+    `default_cache_dir`; but a folder already given to JAX (``JAX_COMPILATION_CACHE_DIR``
+    or ``jax.config``) is kept. Call it before the first compilation. Returns the folder
+    in use, or None if the cache is off (disabled, or the folder cannot be created: a
+    warning says why).
+
+    Only use a folder that no one else can write to: JAX runs what it loads from there.
+    Deleting the folder is safe (it only costs the compilations again).
+    The ``jaxfric`` command calls this at start; the library never does by itself.
+    """
+    if path is None:
+        current = jax.config.jax_compilation_cache_dir
+        if current:
+            return Path(current)
+        env = os.environ.get("JAXFRIC_CACHE_DIR")
+        if env is not None and env in ("", "0"):
+            return None
+        path = Path(env) if env else default_cache_dir()
+    path = Path(path).expanduser()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        warnings.warn(f"jaxfric: compilation cache disabled, cannot create {path}: {e}",
+                      stacklevel=2)
+        return None
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    return path

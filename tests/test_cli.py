@@ -1,12 +1,15 @@
 """The command line as a user runs it: a subprocess on good and bad files."""
 
 import json
+import os
 import subprocess
 import sys
 
+import equinox as eqx
 import numpy as np
 import pytest
 
+import fitting
 import jaxfric
 from jaxfric import paper
 
@@ -14,10 +17,24 @@ from jaxfric import paper
 UM = 1e-6
 
 
-def run(*args, cwd=None):
+@pytest.fixture(autouse=True, scope="module")
+def _cache_dir(tmp_path_factory):
+    """The commands keep compiled programs on disk (`jaxfric.enable_compilation_cache`):
+    here in a folder of the test session, not in the user's home."""
+    old = os.environ.get("JAXFRIC_CACHE_DIR")
+    os.environ["JAXFRIC_CACHE_DIR"] = str(tmp_path_factory.mktemp("xla-cache"))
+    yield
+    if old is None:
+        del os.environ["JAXFRIC_CACHE_DIR"]
+    else:
+        os.environ["JAXFRIC_CACHE_DIR"] = old
+
+
+def run(*args, cwd=None, env=None):
     return subprocess.run(
         [sys.executable, "-m", "jaxfric._cli", *map(str, args)],
         capture_output=True, text=True, cwd=cwd, timeout=600,
+        env=None if env is None else {**os.environ, **env},
     )
 
 
@@ -87,6 +104,29 @@ def test_fit_two_state_prints_table_and_writes_plot(tmp_path):
                                   "beta", "l1", "C"}
     assert res["rmse"] < 0.1  # noise 0.05 N; the start (estimated from data) is far worse
     assert (tmp_path / "f.png").stat().st_size > 10_000
+
+
+def test_fit_keeps_its_compilation_on_disk(tmp_path):
+    """A second `jaxfric fit` of the same shape loads the solver from the cache folder
+    (JAX logs the hit); an empty JAXFRIC_CACHE_DIR turns the cache off."""
+    t, x, F = _synthetic(paper.tustin(), 0.02, n=400)
+    path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F))
+    cache = tmp_path / "cache"
+    # JAX stores programs that took >= 1 s to compile; this small Tustin fit is quicker.
+    env = {"JAXFRIC_CACHE_DIR": str(cache), "JAX_LOG_COMPILES": "1",
+           "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0"}
+    first = run("fit", path, "--model", "tustin", "--quiet", env=env)
+    assert first.returncode == 0, first.stderr
+    hit = "Persistent compilation cache hit for 'jit__solve_impl'"
+    assert hit not in first.stderr
+    assert any("_solve_impl" in p.name for p in cache.iterdir())
+    second = run("fit", path, "--model", "tustin", "--quiet", env=env)
+    assert second.returncode == 0, second.stderr
+    assert hit in second.stderr
+    off = run("fit", path, "--model", "tustin", "--quiet",
+              env={**env, "JAXFRIC_CACHE_DIR": ""})
+    assert off.returncode == 0, off.stderr
+    assert "cache hit" not in off.stderr
 
 
 def test_fit_warns_on_opposite_sign_and_flip_force_fixes_it(tmp_path):
@@ -205,3 +245,48 @@ def test_demo_writes_the_report(tmp_path):
     assert summary["found"] == ["cogging"]
     assert summary["final_rmse_N"] < 0.5 * summary["baseline_rmse_N"]
     assert (out / "example.csv").stat().st_size > 0
+
+
+def test_progress_solver_prints_steps():
+    """What `jaxfric fit` prints while it works when its output is a terminal."""
+    from fitting import _cli
+
+    truth = paper.tustin()
+    t, x, F = _synthetic(truth, 0.02, n=300)
+    lines = []
+    start = eqx.tree_at(lambda m: m.stribeck.Fc, truth, truth.stribeck.Fc * 1.3)
+    res = fitting.fit(start, t, x, F, max_steps=20, solver=_cli._progress_solver(
+        lines.append, every_s=0.0))
+    assert res.num_steps > 1
+    assert lines and all(line.lstrip().startswith("step") and "cost" in line for line in lines)
+
+
+def test_enable_compilation_cache_rules(tmp_path):
+    """Where `jaxfric.enable_compilation_cache` puts the cache (in a new process: it sets
+    JAX's global configuration)."""
+    (tmp_path / "file").write_text("")
+    code = f"""
+import os, warnings, jax, jaxfric
+from jaxfric._config import default_cache_dir
+with warnings.catch_warnings(record=True) as w:
+    warnings.simplefilter("always")
+    assert jaxfric.enable_compilation_cache({str(tmp_path / "file" / "sub")!r}) is None
+assert "cannot create" in str(w[0].message)
+os.environ["JAXFRIC_CACHE_DIR"] = ""
+assert jaxfric.enable_compilation_cache() is None
+assert not jax.config.jax_compilation_cache_dir
+del os.environ["JAXFRIC_CACHE_DIR"]
+os.environ["XDG_CACHE_HOME"] = {str(tmp_path / "xdg")!r}
+p = jaxfric.enable_compilation_cache()
+assert p == default_cache_dir() and p.is_dir(), p
+assert str(p).startswith({str(tmp_path / "xdg")!r}), p
+assert jax.config.jax_compilation_cache_dir == str(p)
+os.environ["JAXFRIC_CACHE_DIR"] = "/elsewhere"
+assert jaxfric.enable_compilation_cache() == p  # a folder JAX already has is kept
+print("ok")
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=120, env={k: v for k, v in os.environ.items()
+                                         if k not in ("JAXFRIC_CACHE_DIR",
+                                                      "JAX_COMPILATION_CACHE_DIR")})
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
