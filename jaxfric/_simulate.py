@@ -58,14 +58,14 @@ def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None) -> SimResult
     return model._simulate(make_motion(t, x, v, max_reversals))
 
 
-def _has_reversal_list(model) -> bool:
-    """Whether `model` contains a `TwoState` (the one model that uses `max_reversals`)."""
-    from ._models.two_state import TwoState
+def _uses_reversal_bound(model) -> bool:
+    """Whether `model`, or a model inside it (e.g. under added effects), evaluates terms on
+    a list of reversals (`AbstractFrictionModel.uses_reversal_bound`)."""
 
-    def is_two_state(m):
-        return isinstance(m, TwoState)
+    def uses(m):
+        return getattr(m, "uses_reversal_bound", False) is True
 
-    return any(is_two_state(m) for m in jax.tree.leaves(model, is_leaf=is_two_state))
+    return any(uses(m) for m in jax.tree.leaves(model, is_leaf=uses))
 
 
 def simulate(
@@ -126,7 +126,7 @@ def simulate(
             i = int(np.argmax(dt <= 0)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     model = jax.tree.map(_strong, model)
-    if max_reversals is None and _has_reversal_list(model) and not any(
+    if max_reversals is None and _uses_reversal_bound(model) and not any(
             isinstance(a, jax.core.Tracer) for a in (t, x, v)):
         max_reversals = reversal_bound(t, x, v)
     if max_reversals is not None:

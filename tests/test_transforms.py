@@ -253,6 +253,12 @@ def test_reversal_bound_and_max_reversals():
                                jaxfric.simulate(model, t, t * 1e-3), atol=ATOL, rtol=0)
     with pytest.raises(ValueError, match="max_reversals"):
         jaxfric.simulate(model, t, t * 1e-3, max_reversals=-1)
+    # `simulate` computes the bound for models that use it, also under added effects.
+    from jaxfric._simulate import _uses_reversal_bound
+
+    assert _uses_reversal_bound(model)
+    assert _uses_reversal_bound(model + jaxfric.effects.Offset(0.1))
+    assert not _uses_reversal_bound(paper.gms5() + jaxfric.effects.Offset(0.1))
 
 
 def test_no_recompilation_for_weakly_typed_parameter(traces):

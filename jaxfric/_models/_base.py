@@ -1,7 +1,7 @@
 """What every friction model provides."""
 
 import abc
-from typing import Any
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax
@@ -35,7 +35,13 @@ class AbstractFrictionModel(eqx.Module):
     user's own ``lax.scan``); ``_simulate`` is the whole-trajectory path that
     `jaxfric.simulate` uses. Models whose smooth parts can be vectorised override
     ``_simulate``; the default scans ``step``. Both give the same numbers (tested).
+
+    ``uses_reversal_bound``: whether ``_simulate`` evaluates terms on a list of
+    ``Motion.max_reversals`` slots (`jaxfric.simulate` then computes the bound from
+    concrete data).
     """
+
+    uses_reversal_bound: ClassVar[bool] = False
 
     @abc.abstractmethod
     def init_state(self, x0: ArrayLike = 0.0) -> Any:

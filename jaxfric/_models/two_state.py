@@ -17,6 +17,7 @@ for closed-loop use; tests check both give the same forces.
 """
 
 import functools
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -118,6 +119,7 @@ class TwoState(AbstractFrictionModel):
     sigma2: Array = eqx.field(converter=as_param)
     C: Array = eqx.field(converter=as_param)
     stack_size: int = eqx.field(static=True, default=16)
+    uses_reversal_bound: ClassVar[bool] = True
 
     def __check_init__(self):
         if self.stack_size < 3:
