@@ -363,20 +363,36 @@ def _consistency(ref, new, test, blocks) -> tuple[float, int]:
     return t_stat, int(per_block.size)
 
 
+def _base_signals(model, t, x, v):
+    """The signals effects are built from (`_signals`), at the force of `model` without
+    its added effects."""
+    base_model = model.base if isinstance(model, fx.WithEffects) else model
+    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
+    return _signals(t, x, v, base_force,
+                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
+
+
+def _unit_columns(B, train):
+    """`B` with each column scaled to unit norm on the training samples, and the scales."""
+    scale = np.linalg.norm(B[train], axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    return B / scale, scale
+
+
+def _regress(resid, train, *blocks):
+    """The linearised step every screen takes: least squares of `resid` on the columns of
+    `blocks` (the model's Jacobian, effect columns) over the training samples. Returns
+    what is left of `resid` on all samples, and the coefficients."""
+    A = np.concatenate(blocks, axis=1)
+    coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
+    return resid - A @ coef, coef
+
+
 def _normalised_columns(candidates, model, t, x, v, train):
     """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
     the training samples: a list of ``(columns, scale)``."""
-    base_model = model.base if isinstance(model, fx.WithEffects) else model
-    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
-    s = _signals(t, x, v, base_force,
-                 np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
-    out = []
-    for c in candidates:
-        B = _columns(c.effect, s)
-        scale = np.linalg.norm(B[train], axis=0)
-        scale = np.where(scale > 0, scale, 1.0)
-        out.append((B / scale, scale))
-    return out
+    s = _base_signals(model, t, x, v)
+    return [_unit_columns(_columns(c.effect, s), train) for c in candidates]
 
 
 def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_score, min_t):
@@ -391,14 +407,9 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_
         return
     cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train)]
 
-    def residual(blocks_used):
-        A = np.concatenate([J, *blocks_used], axis=1)
-        coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
-        return resid - A @ coef
-
-    full = residual(cols)
+    full, _ = _regress(resid, train, J, *cols)
     for i, c in enumerate(lead):
-        without = residual(cols[:i] + cols[i + 1:])
+        without, _ = _regress(resid, train, J, *cols[:i], *cols[i + 1:])
         t_joint, n_blocks = _consistency(without, full, test, blocks)
         if not c.significant and t_joint >= min_t:
             others = ", ".join(o.name for o in lead if o is not c)
@@ -432,9 +443,8 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pai
     cols = _normalised_columns(candidates, model, t, x, v, train)
 
     def solve(used):
-        A = np.concatenate([J, *(cols[i][0] for i in used)], axis=1)
-        coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
-        return resid - A @ coef, coef[J.shape[1]:]
+        new, coef = _regress(resid, train, J, *(cols[i][0] for i in used))
+        return new, coef[J.shape[1]:]
 
     def sse(r):
         return float(np.sum(r[test] ** 2))
@@ -458,34 +468,24 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pai
 
 
 def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
-    base_model = model.base if isinstance(model, fx.WithEffects) else model
-    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
-    s = _signals(t, x, v, base_force,
-                 np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
+    s = _base_signals(model, t, x, v)
     best = None
     base_test = resid[test]
     # The model's own parameters alone (one Gauss-Newton step): the reference.
-    coef_j, *_ = np.linalg.lstsq(J[train], resid[train], rcond=1e-10)
-    ref = resid - J @ coef_j
+    ref, _ = _regress(resid, train, J)
     sse_base = max(float(np.sum(base_test**2)), 1e-300)
     bounds = _BOUNDS.get(name)
     for effect in _grid(name, t, x, v, F):
         B = _columns(effect, s)
         if not np.all(np.isfinite(B)) or not np.any(B[train]):
             continue
-        scale = np.linalg.norm(B[train], axis=0)
-        scale[scale == 0] = 1.0
-        A = np.concatenate([J, B / scale], axis=1)
-        coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
+        unit, scale = _unit_columns(B, train)
+        new, coef = _regress(resid, train, J, unit)
         w = coef[J.shape[1]:] / scale
         if bounds is not None and np.any((w < bounds[0]) | (w > bounds[1])):
             # Outside its physical range: hold it at the bound, refit the model's part.
             w = np.clip(w, *bounds)
-            rest = resid - B @ w
-            cj, *_ = np.linalg.lstsq(J[train], rest[train], rcond=1e-10)
-            new = rest - J @ cj
-        else:
-            new = resid - A @ coef
+            new, _ = _regress(resid - B @ w, train, J)
         # Held-out SSE removed beyond what the model's own parameters do in the same
         # linearised step, as a fraction of the larger of the two reference SSEs (<= 1).
         sse_new, sse_ref = float(np.sum(new[test] ** 2)), float(np.sum(ref[test] ** 2))
