@@ -1,14 +1,19 @@
 """Where the time of one two-state simulation goes: cumulative stages, side by side.
 
-`TwoState._simulate` runs in stages (see benchmarks/NOTES.md): the motion's per-sample
-inputs (velocity, direction, last direction) and the Stribeck values; the event pass (the
-sequential ``lax.while_loop`` over blocks and events, on stopped gradients); and the
-vectorised second pass (forward fill of the records, branch-start forces, the branch
-force, the lag recurrence). Each row below is a separately compiled function that runs
-the stages up to and including that one, so the difference between consecutive rows is
-the cost of a stage, approximately (each row also writes its outputs to memory, which the
-whole simulation fuses away or keeps, and the compiler may fuse differently). Also timed:
-the whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
+`TwoState._simulate` runs in stages (see benchmarks/NOTES.md), each a method of the model
+that this script calls in the same order: the motion's per-sample inputs (velocity,
+direction, last direction) and the Stribeck values; the event pass (the sequential
+``lax.while_loop`` over blocks and events, on stopped gradients); the forward fill of its
+records (which entry each sample uses); the branch-start forces (evaluated on the list of
+reversals, then gathered per sample); the branch force ``F_h`` and ``gamma`` (the shape
+function at every sample); and the friction lag (its coefficients and the linear
+recurrence), which completes the simulation. Each row below is a separately compiled
+function that runs the stages up to and including that one and returns the sum of that
+stage's outputs (so that writing them to memory is not timed; the last row is the
+simulation itself and writes the force), and the difference between consecutive rows is
+the cost of a stage, approximately (the compiler may fuse or overlap stages differently
+when they end a function than inside the whole simulation). Also timed: the
+whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
 iteration needs).
 
 Run ``python benchmarks/profile_two_state.py [--n N] [--repeats R] [--json OUT]``. All cases
@@ -29,6 +34,7 @@ import jax.numpy as jnp
 
 from jaxfric import paper
 from jaxfric._inputs import make_motion, reversal_bound
+from jaxfric._models import two_state
 
 
 try:
@@ -38,28 +44,52 @@ except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
 
 
 def _stages(model, t, x):
-    def motion(p):
-        m = eqx.combine(p, static)
-        mo = make_motion(t, x)
-        s = m.stribeck.effective(mo.v, mo.last_d)
-        return s, mo.reversal, mo.x_prev, m.stribeck.rest(mo.prev_last_d)
-
-    def events(p):
-        s, reversal, x_prev, s_r = motion(p)
-        return eqx.combine(p, static)._event_pass(x, s, reversal, x_prev, s_r)
-
-    def full(p):  # as `jaxfric.simulate` runs it on concrete data
-        return eqx.combine(p, static)._simulate(make_motion(t, x, max_reversals=bound)).force
-
     bound = reversal_bound(t, x)
-
     params, static = eqx.partition(model, eqx.is_inexact_array)
-    cases = {
-        "1. motion inputs + Stribeck values": jax.jit(motion),
-        "2. + event pass (while_loop)": jax.jit(events),
-        "3. + vectorised second pass (= simulate)": jax.jit(full),
-        "jacfwd of simulate (12 parameters)": jax.jit(jax.jacfwd(full)),
-    }
+
+    def upto(stage):
+        """The simulation up to and including `stage` (as `TwoState._simulate` runs it)."""
+
+        def run(p):
+            out = stages(p)
+            if stage == 6:
+                return out
+            # One number from the stage's outputs: computing them is timed, writing them
+            # to memory (several n-element arrays) is not.
+            return sum(jnp.sum(a.astype(jnp.float64)) for a in jax.tree.leaves(out))
+
+        def stages(p):
+            m = eqx.combine(p, static)
+            mo = make_motion(t, x, max_reversals=bound)
+            if stage == 1:
+                return m.stribeck.effective(mo.v, mo.last_d), m.stribeck.rest(mo.prev_last_d)
+            s, rec = m._stage_events(mo)
+            if stage == 2:  # what the fill reads, and one entry of the popped list
+                return s, rec.event, rec.popped[0], rec.overflow
+            active, depth, popped_until = two_state._fill_records(rec)
+            if stage == 3:
+                return active, depth, popped_until
+            h_e = m._stage_branch_starts(mo, rec, popped_until)
+            x_e, s_e = m._entry(mo, active)
+            if stage == 4:
+                return h_e, x_e, s_e
+            f_h, _, gamma = m._branch(mo.x, s, x_e, h_e, s_e)
+            if stage == 5:
+                return f_h, gamma
+            return m._simulate(mo).force  # as `jaxfric.simulate` runs it on concrete data
+
+        return run
+
+    names = [
+        "1. motion inputs + Stribeck values",
+        "2. + event pass (while_loop)",
+        "3. + forward fill of the event records",
+        "4. + branch-start forces (reversal list)",
+        "5. + branch force F_h, gamma (shape)",
+        "6. + friction lag (= simulate)",
+    ]
+    cases = {name: jax.jit(upto(i + 1)) for i, name in enumerate(names)}
+    cases["jacfwd of simulate (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
     return params, cases
 
 

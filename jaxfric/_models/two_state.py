@@ -282,46 +282,62 @@ class TwoState(AbstractFrictionModel):
     # ---- whole trajectory -------------------------------------------------------------
 
     def _simulate(self, motion: Motion) -> SimResult:
+        s, rec = self._stage_events(motion)
+        active, depth, popped_until = _fill_records(rec)
+        h_e = self._stage_branch_starts(motion, rec, popped_until)
+        x_e, s_e = self._entry(motion, active)
+        f_h, _, gamma = self._branch(motion.x, s, x_e, h_e, s_e)
+        lag = self._stage_lag(motion, s, gamma)
+        viscous = self.sigma2 * motion.v
+        # A bound below the true count (only if given by hand) would drop reversals: NaN.
+        limit = motion.x.shape[0] if motion.max_reversals is None else motion.max_reversals
+        fits = jnp.sum(motion.reversal) <= limit
+        f_h = jnp.where(fits, f_h, jnp.nan)
+        lag = jnp.where(fits, lag, jnp.nan)
+        return SimResult(
+            force=f_h + lag + viscous,
+            parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
+            overflow=rec.overflow,
+        )
+
+    # The stages of `_simulate`, also timed one by one by benchmarks/profile_two_state.py.
+
+    def _stage_events(self, motion: Motion) -> tuple[Array, "_Events"]:
+        """The Stribeck values ``S`` of every sample and the records of the event pass."""
         s = self.stribeck.effective(motion.v, motion.last_d)
         s_r = self.stribeck.rest(motion.prev_last_d)
-        reversal = motion.reversal
+        return s, self._event_pass(motion.x, s, motion.reversal, motion.x_prev, s_r)
+
+    def _entry(self, motion: Motion, ref):
+        """(x, s) of the entries pushed at samples `ref` (-1: the zero state). Their ``s``
+        is the rest value ``rest(prev_last_d)`` of the reversal, taken as a direction
+        times Fs rather than gathered from an array of rest values: under ``jacfwd`` a
+        float gather carries every tangent."""
+        r = jnp.maximum(ref, 0)
+        return (
+            jnp.where(ref >= 0, motion.x_prev[r], motion.x[0]),
+            self.stribeck.rest(jnp.where(ref >= 0, motion.prev_last_d[r], 0.0)),
+        )
+
+    def _stage_branch_starts(self, motion: Motion, rec: "_Events", popped_until) -> Array:
+        """``h`` of the entry each sample uses: F_h at the start of its branch (N).
+
+        h of the entry pushed at reversal r is h(parent) + g_r (see `_push`); h of the
+        entry in use is then the sum of g over the entries pushed so far minus those
+        popped (entries dropped by wiping or overflow stay in: they are ancestors of the
+        bottom). g is evaluated on the list of reversals only (`max_reversals` slots, a
+        static bound; at most n), not on every sample.
+        """
         n = motion.x.shape[0]
-        rec = self._event_pass(motion.x, s, reversal, motion.x_prev, s_r)
-
-        # Forward-fill the records: each sample uses the state after the last event at or
-        # before it (the zero state before the first).
-        idx = jnp.arange(n, dtype=jnp.int32)
-        last = running_max(jnp.where(rec.event, idx, -1))
-        seen = last >= 0
-        last = jnp.maximum(last, 0)
-        # Before any event: the zero state (-1), depth 1, no parent, nothing popped.
-        none = jnp.array([-1, 1, -1, 0], jnp.int32)
-        filled = jnp.where(seen[:, None], rec.table[last], none)
-        active, depth, popped_until = filled[:, 0], filled[:, 1], filled[:, 3]
-
-        def entry(ref):
-            """(x, s) of the entries pushed at samples `ref` (-1: the zero state). Their
-            ``s`` is the rest value ``rest(prev_last_d)`` of the reversal (`s_r`), taken as
-            a direction times Fs rather than gathered from `s_r`: under ``jacfwd`` a float
-            gather carries every tangent."""
-            r = jnp.maximum(ref, 0)
-            return (
-                jnp.where(ref >= 0, motion.x_prev[r], motion.x[0]),
-                self.stribeck.rest(jnp.where(ref >= 0, motion.prev_last_d[r], 0.0)),
-            )
-
-        # h of the entry pushed at reversal r is h(parent) + g_r (see `_push`); h of the
-        # entry in use is then the sum of g over the entries pushed so far minus those
-        # popped (entries dropped by wiping or overflow stay in: they are ancestors of the
-        # bottom). g is evaluated on the list of reversals only (`max_reversals` slots, a
-        # static bound; at most n), not on every sample.
+        reversal = motion.reversal
         limit = n if motion.max_reversals is None else motion.max_reversals
         size = max(1, min(limit, n))
+        idx = jnp.arange(n, dtype=jnp.int32)
         rank = running_sum(reversal.astype(jnp.int32))  # reversals at or before each sample
         slot = jnp.where(reversal, rank - 1, size)
         rev = jnp.zeros((size,), jnp.int32).at[slot].set(idx, mode="drop")  # their samples
         valid = jnp.arange(size, dtype=jnp.int32) < rank[-1]
-        x_p, s_p = entry(rec.parent[rev])
+        x_p, s_p = self._entry(motion, rec.parent[rev])
         s_rev = self.stribeck.rest(motion.prev_last_d[rev])
         den = s_rev - s_p
         xi_rev = safe_div(motion.x_prev[rev] - x_p, den)
@@ -332,26 +348,32 @@ class TwoState(AbstractFrictionModel):
         g_popped = jnp.where(popped >= 0, g[jnp.maximum(rank[jnp.maximum(popped, 0)] - 1, 0)],
                              0.0)
         g_sum, g_popped_sum = running_sum(g), running_sum(g_popped)
-        h_e = jnp.where(rank > 0, g_sum[jnp.maximum(rank - 1, 0)], 0.0) - jnp.where(
+        return jnp.where(rank > 0, g_sum[jnp.maximum(rank - 1, 0)], 0.0) - jnp.where(
             popped_until > 0, g_popped_sum[jnp.maximum(popped_until - 1, 0)], 0.0
         )
-        x_e, s_e = entry(active)
-        f_h, _, gamma = self._branch(motion.x, s, x_e, h_e, s_e)
+
+    def _stage_lag(self, motion: Motion, s, gamma) -> Array:
+        """F_l (N) from its linear recurrence (`_lag_coefficients`)."""
         s_prev = jnp.concatenate([jnp.zeros_like(s[:1]), s[:-1]])
         a, b = self._lag_coefficients(
-            motion.dt, s, motion.d, motion.prev_last_d, reversal, s_prev, gamma
+            motion.dt, s, motion.d, motion.prev_last_d, motion.reversal, s_prev, gamma
         )
-        lag = linear_recurrence(a, b)
-        viscous = self.sigma2 * motion.v
-        # A bound below the true count (only if given by hand) would drop reversals: NaN.
-        fits = rank[-1] <= limit
-        f_h = jnp.where(fits, f_h, jnp.nan)
-        lag = jnp.where(fits, lag, jnp.nan)
-        return SimResult(
-            force=f_h + lag + viscous,
-            parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
-            overflow=rec.overflow,
-        )
+        return linear_recurrence(a, b)
+
+
+def _fill_records(rec: "_Events"):
+    """Forward-fill the event records: each sample uses the state after the last event at
+    or before it (the zero state before the first). Returns the entry in use (`active`,
+    a sample index or -1), the stack `depth` and `popped_until` per sample."""
+    n = rec.table.shape[0] - 1
+    idx = jnp.arange(n, dtype=jnp.int32)
+    last = running_max(jnp.where(rec.event, idx, -1))
+    seen = last >= 0
+    last = jnp.maximum(last, 0)
+    # Before any event: the zero state (-1), depth 1, no parent, nothing popped.
+    none = jnp.array([-1, 1, -1, 0], jnp.int32)
+    filled = jnp.where(seen[:, None], rec.table[last], none)
+    return filled[:, 0], filled[:, 1], filled[:, 3]
 
 
 #: Samples tested at once per iteration of the event loop (see `_event_loop`), for one
