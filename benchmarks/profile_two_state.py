@@ -16,9 +16,11 @@ when they end a function than inside the whole simulation). Also timed: the
 whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
 iteration needs).
 
-Run ``python benchmarks/profile_two_state.py [--n N] [--repeats R] [--json OUT]``. All cases
-are called once in turn per round (interleaved); medians over the rounds, in ns per sample,
-on the mixed motion of `benchmarks/throughput.py` (`benchmarks/motions.py`).
+Run ``python benchmarks/profile_two_state.py [--n N] [--batch B] [--repeats R] [--json OUT]``.
+All cases are called once in turn per round (interleaved); medians over the rounds, in ns
+per sample, on the mixed motion of `benchmarks/throughput.py` (`benchmarks/motions.py`).
+With ``--batch B`` the stages run under ``jax.vmap`` over B such motions with random
+phases (ns per trajectory-step; no ``jacfwd`` row).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import time
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxfric import paper
 from jaxfric._inputs import make_motion, reversal_bound
@@ -43,22 +46,26 @@ except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     from motions import mixed_path
 
 
-def _stages(model, t, x):
-    bound = reversal_bound(t, x)
+def _stages(model, T, X, bound):
+    """The staged functions of `params`: on one trajectory if `T`, `X` are 1-D, else
+    vmapped over their rows (as ``jax.vmap(jaxfric.simulate)`` runs)."""
     params, static = eqx.partition(model, eqx.is_inexact_array)
 
     def upto(stage):
         """The simulation up to and including `stage` (as `TwoState._simulate` runs it)."""
 
         def run(p):
-            out = stages(p)
+            if T.ndim == 1:
+                out = stages(p, T, X)
+            else:
+                out = jax.vmap(lambda t, x: stages(p, t, x))(T, X)
             if stage == 6:
                 return out
             # One number from the stage's outputs: computing them is timed, writing them
             # to memory (several n-element arrays) is not.
             return sum(jnp.sum(a.astype(jnp.float64)) for a in jax.tree.leaves(out))
 
-        def stages(p):
+        def stages(p, t, x):
             m = eqx.combine(p, static)
             mo = make_motion(t, x, max_reversals=bound)
             if stage == 1:
@@ -89,21 +96,33 @@ def _stages(model, t, x):
         "6. + friction lag (= simulate)",
     ]
     cases = {name: jax.jit(upto(i + 1)) for i, name in enumerate(names)}
-    cases["jacfwd of simulate (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
+    if T.ndim == 1:
+        cases["jacfwd of simulate (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
     return params, cases
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=1_000_000, help="samples (default 1e6)")
+    ap.add_argument("--batch", type=int, default=0,
+                    help="profile a vmapped batch of this many trajectories of n samples "
+                         "(random phases, as in the throughput batch section); ns per "
+                         "trajectory-step")
     ap.add_argument("--repeats", type=int, default=9)
     ap.add_argument("--json", help="write the results to this file")
     args = ap.parse_args(argv)
     if not jax.config.jax_enable_x64:
         raise SystemExit("run in float64 (the default with jaxfric imported)")
 
-    t_np, x_np = mixed_path(args.n)
-    params, cases = _stages(paper.two_state(), jnp.asarray(t_np), jnp.asarray(x_np))
+    if args.batch:
+        rng = np.random.default_rng(0)
+        T, X = map(np.stack, zip(*[mixed_path(args.n, rng=rng) for _ in range(args.batch)]))
+        bound = max(reversal_bound(t, x) for t, x in zip(T, X))
+    else:
+        T, X = mixed_path(args.n)
+        bound = reversal_bound(T, X)
+    params, cases = _stages(paper.two_state(), jnp.asarray(T), jnp.asarray(X), bound)
+    per = args.n * max(args.batch, 1)
     for f in cases.values():
         jax.block_until_ready(f(params))
     times = {k: [] for k in cases}
@@ -113,16 +132,19 @@ def main(argv=None):
             jax.block_until_ready(f(params))
             times[k].append(time.perf_counter() - t0)
     rows, prev = [], 0.0
-    print(f"two-state simulation, n = {args.n:.0e}, medians of {args.repeats} rounds")
-    print(f"{'stage (cumulative)':44s} {'ns/sample':>10s} {'stage ns':>9s}")
+    what = f"B = {args.batch} trajectories (vmap) of " if args.batch else ""
+    unit = "ns/traj-step" if args.batch else "ns/sample"
+    print(f"two-state simulation, {what}n = {args.n:.0e}, medians of {args.repeats} rounds")
+    print(f"{'stage (cumulative)':44s} {unit:>12s} {'stage ns':>9s}")
     for k, ts in times.items():
-        ns = statistics.median(ts) * 1e9 / args.n
+        ns = statistics.median(ts) * 1e9 / per
         stage = ns - prev if k[0].isdigit() else None
         prev = ns if k[0].isdigit() else prev
         rows.append({"stage": k, "ns_per_sample": ns, "stage_ns_per_sample": stage})
-        print(f"{k:44s} {ns:10.1f} {'' if stage is None else f'{stage:9.1f}'}")
+        print(f"{k:44s} {ns:12.1f} {'' if stage is None else f'{stage:9.1f}'}")
     if args.json:
-        meta = {"n": args.n, "repeats": args.repeats, "jax": jax.__version__,
+        meta = {"n": args.n, "batch": args.batch, "repeats": args.repeats,
+                "jax": jax.__version__,
                 "devices": [str(d) for d in jax.devices()]}
         with open(args.json, "w") as fh:
             json.dump({"meta": meta, "rows": rows}, fh, indent=2)

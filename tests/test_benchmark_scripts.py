@@ -22,6 +22,15 @@ def test_profile_two_state_runs_and_writes_json(tmp_path, capsys):
     assert rows[-1]["stage_ns_per_sample"] is None
 
 
+def test_profile_two_state_batch_runs(tmp_path, capsys):
+    out = tmp_path / "profile_batch.json"
+    profile_two_state.main(["--n", "600", "--batch", "3", "--repeats", "1", "--json", str(out)])
+    printed = capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["meta"]["batch"] == 3 and "ns/traj-step" in printed
+    assert len(data["rows"]) == 6  # the stages; no jacfwd row for a batch
+
+
 def test_fit_compile_runs_and_writes_json(tmp_path, capsys):
     out = tmp_path / "compile.json"
     fit_compile.main(["--n", "2000", "--batch", "2", "--json", str(out)])

@@ -332,11 +332,12 @@ class TwoState(AbstractFrictionModel):
         reversal = motion.reversal
         limit = n if motion.max_reversals is None else motion.max_reversals
         size = max(1, min(limit, n))
-        idx = jnp.arange(n, dtype=jnp.int32)
         rank = running_sum(reversal.astype(jnp.int32))  # reversals at or before each sample
-        slot = jnp.where(reversal, rank - 1, size)
-        rev = jnp.zeros((size,), jnp.int32).at[slot].set(idx, mode="drop")  # their samples
-        valid = jnp.arange(size, dtype=jnp.int32) < rank[-1]
+        # The samples of the reversals, in order: reversal k is the first sample whose rank
+        # exceeds k (a binary search per slot rather than a scatter of n samples).
+        k = jnp.arange(size, dtype=jnp.int32)
+        rev = jnp.minimum(jnp.searchsorted(rank, k + 1, side="left"), n - 1).astype(jnp.int32)
+        valid = k < rank[-1]
         x_p, s_p = self._entry(motion, rec.parent[rev])
         s_rev = self.stribeck.rest(motion.prev_last_d[rev])
         den = s_rev - s_p
