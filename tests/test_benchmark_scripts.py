@@ -42,3 +42,15 @@ def test_fit_compile_runs_and_writes_json(tmp_path, capsys):
     # The second, identical fit reuses everything the first one compiled.
     _, again, _ = calls.values()
     assert again["compilations"] == 0, again["events"]
+
+
+def test_xla_costs_runs_and_writes_json(tmp_path, capsys):
+    from benchmarks import xla_costs
+
+    out = tmp_path / "costs.json"
+    xla_costs.main(["--n", "3000", "--repeats", "1", "--json", str(out)])
+    data = json.loads(out.read_text())
+    assert len(data["rows"]) == 8 and all(r["value"] > 0 for r in data["rows"])
+    ev = data["event_pass"]
+    assert 0 < ev["reversals"] <= ev["events"] < ev["iterations"]
+    assert "us per iteration" in capsys.readouterr().out
