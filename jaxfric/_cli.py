@@ -123,9 +123,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="jaxfric",
         description="Differentiable dynamic friction models (SI units: s, m, m/s, N).",
-        epilog="Compiled programs are kept in ~/.cache/jaxfric/xla, so a second run of the "
-               "same fit skips most of its compilation; set JAXFRIC_CACHE_DIR to use another "
-               "folder, or to an empty value to turn the cache off.",
+        epilog="Compiled programs are kept in $XDG_CACHE_HOME/jaxfric/xla (default "
+               "~/.cache/jaxfric/xla), so a second run of the same fit skips most of its "
+               "compilation; set JAXFRIC_CACHE_DIR to use another folder, or to an empty "
+               "value to turn the cache off (a JAX_COMPILATION_CACHE_DIR you set is used "
+               "instead of either).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser(

@@ -123,10 +123,14 @@ def test_fit_keeps_its_compilation_on_disk(tmp_path):
     second = run("fit", path, "--model", "tustin", "--quiet", env=env)
     assert second.returncode == 0, second.stderr
     assert hit in second.stderr
+    # Off: no hit, and nothing written where the default folder would be.
+    home, xdg = tmp_path / "home", tmp_path / "xdg"
     off = run("fit", path, "--model", "tustin", "--quiet",
-              env={**env, "JAXFRIC_CACHE_DIR": ""})
+              env={**env, "JAXFRIC_CACHE_DIR": "", "HOME": str(home),
+                   "XDG_CACHE_HOME": str(xdg)})
     assert off.returncode == 0, off.stderr
     assert "cache hit" not in off.stderr
+    assert not xdg.exists() and not (home / ".cache").exists()
 
 
 def test_fit_warns_on_opposite_sign_and_flip_force_fixes_it(tmp_path):

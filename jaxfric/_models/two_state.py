@@ -377,13 +377,12 @@ def _fill_records(rec: "_Events"):
     return filled[:, 0], filled[:, 1], filled[:, 3]
 
 
-#: Samples tested at once per iteration of the event loop (see `_event_loop`), for one
-#: trajectory and for a batch. One trajectory: an iteration costs a few microseconds
-#: whatever its width, so wide blocks pay off (event pass at n = 1e6 on the benchmark
-#: motion: 66 ns per sample with 64, 36 with 512, 35 with 1024). A batch tests B x W samples
-#: per iteration and its time was flat from W = 16 to 256 (B = 256, n = 1e4).
-_WINDOW = 512
-_WINDOW_BATCH = 64
+#: Samples tested at once per iteration of the event loop (see `_event_loop`). Tried
+#: and not kept: blocks of 512 made the event pass alone faster on smooth motions but the
+#: whole simulation not measurably (XLA overlaps the loop with the rest), and motions
+#: with a reversal every few samples (noisy measured velocities) slower, as every event
+#: iteration tests the whole block; batches showed no difference either way.
+_WINDOW = 64
 
 
 def _apply_event(model, stack, hit, j, x, s, reversal, x_prev, s_r):
@@ -428,10 +427,9 @@ def _record(rec, hit, j, stack, parent, refs, npop, count):
 def _event_loop(static, params, params_axes, X, S, R, XP, SR, batched=True):
     """The events of a batch of trajectories (leading axis of X, S, R, XP, SR; `params`
     batched where `params_axes` says 0), in one ``lax.while_loop`` over blocks of
-    `_WINDOW_BATCH` samples shared by the whole batch. With ``batched=False``, one
-    trajectory (1-D arrays) in blocks of `_WINDOW`: the same loop without ``vmap``, so
-    that an iteration without an event skips `_apply_event` (under ``vmap`` its
-    ``lax.cond`` becomes a select).
+    `_WINDOW` samples shared by the whole batch. With ``batched=False``, one trajectory
+    (1-D arrays): the same loop without ``vmap``, so that an iteration without an event
+    skips `_apply_event` (under ``vmap`` its ``lax.cond`` becomes a select).
 
     One iteration tests every sample of the current block at once, for every trajectory,
     against its current stack (a reversal, or a position that closes the top level), from
@@ -445,7 +443,7 @@ def _event_loop(static, params, params_axes, X, S, R, XP, SR, batched=True):
     """
     *lead, n = X.shape
     lead = tuple(lead)
-    size, W = static.stack_size, (_WINDOW_BATCH if batched else _WINDOW)
+    size, W = static.stack_size, _WINDOW
     blocks = -(-n // W)
 
     def pad(a):
