@@ -32,7 +32,7 @@ def _cache_dir(tmp_path_factory):
 
 def run(*args, cwd=None, env=None):
     return subprocess.run(
-        [sys.executable, "-m", "jaxfric._cli", *map(str, args)],
+        [sys.executable, "-m", "fitting.cli", *map(str, args)],
         capture_output=True, text=True, cwd=cwd, timeout=600,
         env=None if env is None else {**os.environ, **env},
     )
@@ -253,13 +253,13 @@ def test_demo_writes_the_report(tmp_path):
 
 def test_progress_solver_prints_steps():
     """What `jaxfric fit` prints while it works when its output is a terminal."""
-    from fitting import _cli
+    from fitting.cli import commands
 
     truth = paper.tustin()
     t, x, F = _synthetic(truth, 0.02, n=300)
     lines = []
     start = eqx.tree_at(lambda m: m.stribeck.Fc, truth, truth.stribeck.Fc * 1.3)
-    res = fitting.fit(start, t, x, F, max_steps=20, solver=_cli._progress_solver(
+    res = fitting.fit(start, t, x, F, max_steps=20, solver=commands._progress_solver(
         lines.append, every_s=0.0))
     assert res.num_steps > 1
     assert lines and all(line.lstrip().startswith("step") and "cost" in line for line in lines)

@@ -1,4 +1,5 @@
-"""``jaxfric fit``: fit one model to a measurement file and report the parameters."""
+"""The work behind ``jaxfric fit``, ``diagnose``, ``simulate`` and ``compare``: each takes the
+parsed arguments, prints what it does, writes its outputs and returns the exit code."""
 
 import json
 import os
@@ -13,59 +14,17 @@ import optimistix as optx
 
 from jaxfric import data as _data
 
-from ._fit import fit as _fit
-from ._start import initial_model
-
-
-MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
-               "lugre": "lugre", "tustin": "tustin"}
-
-#: SI unit of each parameter name (GMS element names nu_i, k_i by prefix).
-PARAM_UNITS = {
-    "Fs": "N", "Fc": "N", "Vs": "m/s", "delta": "-", "sigma2": "N s/m", "a": "N",
-    "b": "m^-alpha", "c": "N/m^4", "alpha": "-", "beta": "m", "l1": "m/N", "C": "N/s",
-    "sigma0": "N/m", "sigma1": "N s/m", "nu": "-", "k": "N/m",
-}
-
-
-def param_unit(name: str) -> str:
-    return PARAM_UNITS.get(name, PARAM_UNITS.get(name.split("_")[0], "?"))
-
-
-def parse_units(specs) -> dict[str, str]:
-    """``["x=mm", "F=mN,t=ms"]`` -> ``{"x": "mm", "F": "mN", "t": "ms"}``."""
-    units = {}
-    for spec in specs or []:
-        for part in spec.split(","):
-            if not part.strip():
-                continue
-            if "=" not in part:
-                raise _data.DataError(f"--units {part!r}: expected COLUMN=UNIT, e.g. x=mm")
-            col, unit = (s.strip() for s in part.split("=", 1))
-            units[col] = unit
-    return units
-
-
-def load_for_cli(args, log):
-    """Load `args.file` with the CLI's unit and sign options; warnings become one line on
-    stderr (unless --quiet)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", _data.DataWarning)
-        m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force)
-    for w in caught:
-        if not args.quiet:
-            print(f"warning: {w.message}", file=sys.stderr)
-    for note in m.notes:
-        log(f"note: {note}")
-    return m
-
-
-def write_json_atomic(path: str, obj) -> None:
-    """Write JSON via a temporary file and a rename: never a half-written file."""
-    target = Path(path)
-    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(obj, indent=2) + "\n")
-    tmp.replace(target)
+from .._fit import fit as _fit
+from .._start import initial_model
+from ._io import (
+    load_for_cli,
+    MODEL_NAMES,
+    param_table,
+    parse_units,
+    result_json,
+    write_json_atomic,
+)
+from .plots import plot_fit
 
 
 def _progress_solver(log, every_s: float = 1.0):
@@ -87,55 +46,6 @@ def _progress_solver(log, every_s: float = 1.0):
         jax.debug.callback(show, kw["num_steps"][1], kw["loss_last_accepted_step"][1])
 
     return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6, verbose=verbose)
-
-
-def result_json(kind: str, res, m) -> dict:
-    return {
-        "model": kind,
-        "file": str(m.source),
-        "samples": len(m),
-        "params": {k: float(v) for k, v in res.params.items()},
-        "stderr": {k: float(v) for k, v in res.stderr.items()},
-        "units": {k: param_unit(k) for k in res.params},
-        "rmse": float(res.rmse),
-        "nrmse": float(res.nrmse),
-        "r2": float(res.r2),
-        "converged": bool(res.converged),
-        "status": res.status,
-        "iterations": int(res.num_steps),
-    }
-
-
-def param_table(res) -> str:
-    lines = [f"{'parameter':>10}  {'value':>14}  {'std. error':>10}  {'rel.':>8}  unit"]
-    for name in res.names:
-        v, s = float(res.params[name]), float(res.stderr[name])
-        rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
-        lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {param_unit(name)}")
-    return "\n".join(lines)
-
-
-def plot_fit(path: str, m, res, kind: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    pred = np.asarray(res.prediction)
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
-    ax[0].plot(m.t, m.F, lw=0.6, color="0.4", label="measured")
-    ax[0].plot(m.t, pred, lw=0.8, color="C3", label=kind)
-    ax[0].set(xlabel="t [s]", ylabel="F [N]", title="force over time")
-    ax[0].legend(fontsize=8)
-    ax[1].plot(m.x * 1e3, m.F, lw=0.4, color="0.4", label="measured")
-    ax[1].plot(m.x * 1e3, pred, lw=0.6, color="C3", label=kind)
-    ax[1].set(xlabel="x [mm]", ylabel="F [N]", title="force vs position")
-    fig.suptitle(f"{Path(str(m.source)).name}: {kind} fit, RMSE {float(res.rmse):.3g} N")
-    fig.tight_layout()
-    tmp = Path(path).with_name(f".{Path(path).name}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
 
 
 def run_fit(args) -> int:
@@ -172,73 +82,8 @@ def run_fit(args) -> int:
     return 0
 
 
-def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
-    """Figures a person reads at a glance: measured vs model over time (before/after),
-    force vs position, force vs velocity with the model's static curve, and the residual
-    against position, velocity, acceleration and time. Returns the file names."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    t, x, F = m.t, m.x, m.F
-    v = m.velocity()
-    a = np.r_[0.0, np.diff(v) / np.diff(t)]
-    before = np.asarray(d.baseline.fit.prediction)
-    after = np.asarray(d.final.fit.prediction)
-    files = []
-
-    def save(fig, name):
-        tmp = out_dir / f".{name}.tmp{os.getpid()}.png"
-        fig.tight_layout()
-        fig.savefig(tmp, dpi=100)
-        plt.close(fig)
-        tmp.replace(out_dir / name)
-        files.append(name)
-
-    fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
-    ax[0].plot(t, F, lw=0.5, color="0.5", label="measured")
-    ax[0].plot(t, before, lw=0.7, color="C0", label="baseline")
-    ax[0].plot(t, after, lw=0.7, color="C3", label="after: " + (" + ".join(d.final.added) or "-"))
-    ax[0].set(ylabel="F [N]")
-    ax[0].legend(fontsize=8)
-    ax[1].plot(t, F - before, lw=0.5, color="C0", label="baseline residual")
-    ax[1].plot(t, F - after, lw=0.5, color="C3", label="final residual")
-    ax[1].set(xlabel="t [s]", ylabel="residual [N]")
-    ax[1].legend(fontsize=8)
-    save(fig, "time.png")
-
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
-    ax[0].plot(x * 1e3, F, lw=0.4, color="0.5", label="measured")
-    ax[0].plot(x * 1e3, after, lw=0.5, color="C3", label="final model")
-    ax[0].set(xlabel="x [mm]", ylabel="F [N]", title="force vs position")
-    ax[0].legend(fontsize=8)
-    ax[1].plot(v * 1e3, F, ".", ms=1, color="0.5", label="measured")
-    vs = np.linspace(v.min(), v.max(), 400)
-    base_model = d.final.fit.model
-    base_model = getattr(base_model, "base", base_model)
-    if hasattr(base_model, "stribeck"):
-        static = np.asarray(base_model.stribeck(vs)) + float(base_model.sigma2) * vs
-        ax[1].plot(vs * 1e3, static, color="C3", label="model s(v) + sigma2 v")
-    ax[1].set(xlabel="v [mm/s]", ylabel="F [N]", title="force vs velocity")
-    ax[1].legend(fontsize=8)
-    save(fig, "loops.png")
-
-    fig, ax = plt.subplots(2, 2, figsize=(11, 7))
-    r0, r1 = F - before, F - after
-    for axis, (xs, label) in zip(ax.flat, [(x * 1e3, "x [mm]"), (v * 1e3, "v [mm/s]"),
-                                           (a, "a [m/s^2]"), (t, "t [s]")]):
-        axis.plot(xs, r0, ".", ms=1, color="C0", label="baseline")
-        axis.plot(xs, r1, ".", ms=1, color="C3", label="final")
-        axis.set(xlabel=label, ylabel="residual [N]")
-    ax[0, 0].legend(fontsize=8, markerscale=8)
-    save(fig, "residuals.png")
-    return files
-
-
 def run_diagnose(args) -> int:
-    from ._diagnose import diagnose
+    from .._diagnose import diagnose
 
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
@@ -265,7 +110,7 @@ def run_diagnose(args) -> int:
     if args.report:
         from types import SimpleNamespace
 
-        from ._report import write_report
+        from .report import write_report
 
         page = write_report(
             args.report,
@@ -284,7 +129,7 @@ def model_from_params(kind: str, params: dict):
     (``{"model": ..., "params": {name: SI value}}`` or just the params dict)."""
     from jaxfric import paper
 
-    from . import _params
+    from .. import _params
 
     n = sum(1 for k in params if k.startswith("nu_"))
     template = {"two-state": paper.two_state, "lugre": paper.lugre, "tustin": paper.tustin,
@@ -346,7 +191,7 @@ def run_simulate(args) -> int:
 
 
 def run_compare(args) -> int:
-    from ._diagnose import regime_errors, regimes
+    from .._diagnose import regime_errors, regimes
 
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     m = load_for_cli(args, log)

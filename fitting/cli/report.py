@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._cli import param_unit, plot_diagnosis, write_json_atomic
+from ._io import param_unit, write_json_atomic
+from .plots import plot_diagnosis
 
 
 def _table(header, rows) -> str:

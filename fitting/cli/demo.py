@@ -20,9 +20,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from . import effects as fx
-from ._simulate import simulate
-from .examples import diagnosis_motion, diagnosis_truth
+import jaxfric
+from jaxfric import effects as fx
+from jaxfric.examples import diagnosis_motion, diagnosis_truth
 
 
 NOISE_N = 0.05
@@ -35,13 +35,13 @@ def example_measurement(seed: int = 0, dt: float = 2e-2):
     stage = diagnosis_truth()  # PowerShape presliding, Stribeck 24/19 N, sigma2 50, C 9
     truth = stage + fx.Cogging(cog_sin=0.6, cog_cos=0.3, period=1.7e-3)
     rng = np.random.default_rng(seed)
-    F = np.asarray(simulate(truth, t, x)) + rng.normal(0.0, NOISE_N, t.size)
+    F = np.asarray(jaxfric.simulate(truth, t, x)) + rng.normal(0.0, NOISE_N, t.size)
     return t, x, F, truth
 
 
 def run(out: Path, log=print) -> dict:
-    from fitting import diagnose, initial_model
-    from fitting._report import write_report
+    from .. import diagnose, initial_model
+    from .report import write_report
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

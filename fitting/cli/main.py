@@ -23,11 +23,11 @@ examples:
 
 
 def _demo(args) -> int:
-    from . import _demo
+    from . import demo
 
     out = Path(args.out)
     t0 = time.perf_counter()
-    summary = _demo.run(out, log=(lambda *a: None) if args.quiet else print)
+    summary = demo.run(out, log=(lambda *a: None) if args.quiet else print)
     elapsed = time.perf_counter() - t0
     if args.json:
         Path(args.json).write_text(json.dumps(summary, indent=2))
@@ -86,27 +86,27 @@ examples:
 
 
 def _simulate(args) -> int:
-    from fitting import _cli
+    from . import commands
 
-    return _cli.run_simulate(args)
+    return commands.run_simulate(args)
 
 
 def _compare(args) -> int:
-    from fitting import _cli
+    from . import commands
 
-    return _cli.run_compare(args)
+    return commands.run_compare(args)
 
 
 def _diagnose(args) -> int:
-    from fitting import _cli
+    from . import commands
 
-    return _cli.run_diagnose(args)
+    return commands.run_diagnose(args)
 
 
 def _fit(args) -> int:
-    from fitting import _cli
+    from . import commands
 
-    return _cli.run_fit(args)
+    return commands.run_fit(args)
 
 
 def _add_data_options(p) -> None:
@@ -205,8 +205,8 @@ def main(argv=None) -> int:
     p.set_defaults(func=_diagnose)
 
     args = parser.parse_args(argv)
-    from ._config import enable_compilation_cache
-    from .data import DataError
+    from jaxfric import enable_compilation_cache
+    from jaxfric.data import DataError
 
     enable_compilation_cache()
 
@@ -218,7 +218,3 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"jaxfric {args.command}: interrupted", file=sys.stderr)
         return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,91 @@
+"""What the commands share: model names, parameter units, reading a file with the command
+line's unit and sign options, result tables and JSON written atomically."""
+
+import json
+import os
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from jaxfric import data as _data
+
+
+MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
+               "lugre": "lugre", "tustin": "tustin"}
+
+#: SI unit of each parameter name (GMS element names nu_i, k_i by prefix).
+PARAM_UNITS = {
+    "Fs": "N", "Fc": "N", "Vs": "m/s", "delta": "-", "sigma2": "N s/m", "a": "N",
+    "b": "m^-alpha", "c": "N/m^4", "alpha": "-", "beta": "m", "l1": "m/N", "C": "N/s",
+    "sigma0": "N/m", "sigma1": "N s/m", "nu": "-", "k": "N/m",
+}
+
+
+def param_unit(name: str) -> str:
+    return PARAM_UNITS.get(name, PARAM_UNITS.get(name.split("_")[0], "?"))
+
+
+def parse_units(specs) -> dict[str, str]:
+    """``["x=mm", "F=mN,t=ms"]`` -> ``{"x": "mm", "F": "mN", "t": "ms"}``."""
+    units = {}
+    for spec in specs or []:
+        for part in spec.split(","):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise _data.DataError(f"--units {part!r}: expected COLUMN=UNIT, e.g. x=mm")
+            col, unit = (s.strip() for s in part.split("=", 1))
+            units[col] = unit
+    return units
+
+
+def load_for_cli(args, log):
+    """Load `args.file` with the CLI's unit and sign options; warnings become one line on
+    stderr (unless --quiet)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _data.DataWarning)
+        m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force)
+    for w in caught:
+        if not args.quiet:
+            print(f"warning: {w.message}", file=sys.stderr)
+    for note in m.notes:
+        log(f"note: {note}")
+    return m
+
+
+def write_json_atomic(path: str, obj) -> None:
+    """Write JSON via a temporary file and a rename: never a half-written file."""
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
+    tmp.write_text(json.dumps(obj, indent=2) + "\n")
+    tmp.replace(target)
+
+
+def result_json(kind: str, res, m) -> dict:
+    return {
+        "model": kind,
+        "file": str(m.source),
+        "samples": len(m),
+        "params": {k: float(v) for k, v in res.params.items()},
+        "stderr": {k: float(v) for k, v in res.stderr.items()},
+        "units": {k: param_unit(k) for k in res.params},
+        "rmse": float(res.rmse),
+        "nrmse": float(res.nrmse),
+        "r2": float(res.r2),
+        "converged": bool(res.converged),
+        "status": res.status,
+        "iterations": int(res.num_steps),
+    }
+
+
+def param_table(res) -> str:
+    lines = [f"{'parameter':>10}  {'value':>14}  {'std. error':>10}  {'rel.':>8}  unit"]
+    for name in res.names:
+        v, s = float(res.params[name]), float(res.stderr[name])
+        rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
+        lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {param_unit(name)}")
+    return "\n".join(lines)
+
+
