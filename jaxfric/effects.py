@@ -38,9 +38,9 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from ._inputs import Motion
 from ._models._base import AbstractFrictionModel, SimResult
 from ._numerics import as_param, linear_recurrence, safe_div
+from .motion import Motion
 
 
 class Signals(eqx.Module):
@@ -80,6 +80,10 @@ class AbstractEffect(eqx.Module):
     def describe(self) -> str:
         """One line with the effect's parameter values and units."""
         return self.name
+
+    def add_to(self, model: AbstractFrictionModel) -> "WithEffects":
+        """``model + self``: `model` with this effect appended."""
+        return add_effects(model, self)
 
 
 class Viscous(AbstractEffect):
@@ -381,7 +385,7 @@ def _as_effects(other) -> tuple[AbstractEffect, ...]:
 
 
 def add_effects(model: AbstractFrictionModel, other) -> WithEffects:
-    """``model + other`` (`AbstractFrictionModel.__add__` calls this)."""
+    """``model + other`` (`AbstractEffect.add_to` calls this)."""
     if isinstance(model, WithEffects):
         return model + other
     return WithEffects(model, _as_effects(other))

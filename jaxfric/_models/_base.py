@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from .._inputs import Motion
+from ..motion import Motion
 
 
 class SimResult(eqx.Module):
@@ -57,10 +57,17 @@ class AbstractFrictionModel(eqx.Module):
 
     def __add__(self, effect):
         """``model + effect`` (or a tuple of effects): the model with additive physical
-        effects (`jaxfric.effects`), fitted jointly by the `fitting` package."""
-        from ..effects import add_effects
+        effects (`jaxfric.effects`), fitted jointly by the `fitting` package.
 
-        return add_effects(self, effect)
+        Each effect adds itself through its ``add_to(model)`` method, so this layer needs
+        no import of the effects module (which builds on it)."""
+        model = self
+        for e in effect if isinstance(effect, tuple | list) else (effect,):
+            add_to = getattr(e, "add_to", None)
+            if add_to is None:
+                raise TypeError(f"can only add jaxfric effects to a model, not {type(e).__name__}")
+            model = add_to(model)
+        return model
 
     def _simulate(self, motion: Motion) -> SimResult:
         state = self.init_state(motion.x[0])
