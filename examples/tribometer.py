@@ -1,6 +1,6 @@
 """Worked example: every jaxfric model fitted to a real reciprocating-tribometer record.
 
-    python -m fitting.tribometer [--data PATH] [--json OUT.json] [--out DIR] [--quick]
+    python examples/tribometer.py [--data PATH] [--json OUT.json] [--out DIR] [--quick]
 
 **Data.** A CSV with a header row and columns ``t`` (s), ``x`` (m), ``F`` (friction force, N)
 and ``normal`` (normal load, N); by default ``../shared/data/tribometer.csv`` relative to
@@ -86,13 +86,9 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxfric
+from fitting import _params, Dataset, fit, FitResult, NormalizedPaperShape
+from fitting._staged import _estimate_l1
 from jaxfric import paper
-
-from . import _params
-from ._data import Dataset
-from ._fit import fit, FitResult
-from ._shape import NormalizedPaperShape
-from ._staged import _estimate_l1
 
 
 #: Default data file: ``../shared/data/tribometer.csv`` relative to the repository root.
@@ -783,11 +779,25 @@ def plot(report: Report, out_dir: str | Path, *, cycles: int = 2) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     r = report.record
     w = _window(report, cycles)
-    t, x_mm, F = r.t[w], 1e3 * r.x[w], r.F[w]
+    t, F = r.t[w], r.F[w]
     fits = report.fits
     paths = []
 
-    # Force against position, with both turning points zoomed.
+    figures = {
+        "tribometer_loops.png": _loops_figure(plt, r, w, fits),
+        "tribometer_time.png": _time_figure(plt, w, fits, t, F),
+        "tribometer_residuals.png": _residuals_figure(plt, r, fits),
+    }
+    for name, fig in figures.items():
+        paths.append(out / name)
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths
+
+
+def _loops_figure(plt, r, w, fits):
+    """Force against position over the window `w`, with both turning points zoomed."""
+    t, x_mm, F = r.t[w], 1e3 * r.x[w], r.F[w]
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), gridspec_kw={"width_ratios": [2, 1, 1]})
     span = np.ptp(x_mm)
     zooms = [(None, "two cycles"), ((x_mm.max() - 0.4 * span, x_mm.max() + 0.02 * span),
@@ -808,11 +818,11 @@ def plot(report: Report, out_dir: str | Path, *, cycles: int = 2) -> list[Path]:
     fig.suptitle(f"Tribometer, validation part: t = {t[0]:.1f}..{t[-1]:.1f} s "
                  f"(normal load {r.normal_plateau:.3g} N)")
     fig.tight_layout()
-    paths.append(out / "tribometer_loops.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    return fig
 
-    # Force and error against time.
+
+def _time_figure(plt, w, fits, t, F):
+    """Force and each model's error against time over the window `w`."""
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(12, 7), sharex=True,
                                    gridspec_kw={"height_ratios": [3, 2]})
     ax0.plot(t, F, ".", color="k", ms=2, label="measured")
@@ -830,11 +840,11 @@ def plot(report: Report, out_dir: str | Path, *, cycles: int = 2) -> list[Path]:
     ax1.legend(loc="upper right", fontsize=8, ncol=4)
     fig.suptitle("Force against time, validation part (Tustin's error is off this scale)")
     fig.tight_layout()
-    paths.append(out / "tribometer_time.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    return fig
 
-    # Two-state error against position, and the measured sliding level over time.
+
+def _residuals_figure(plt, r, fits):
+    """Two-state error against position, and the measured sliding level over time."""
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.8))
     if "two_state" in fits:
         v = _velocity(r.t, r.x)
@@ -870,19 +880,16 @@ def plot(report: Report, out_dir: str | Path, *, cycles: int = 2) -> list[Path]:
     axes[2].legend(fontsize=8)
     axes[2].grid(alpha=0.3)
     fig.tight_layout()
-    paths.append(out / "tribometer_residuals.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    return paths
+    return fig
 
 
 # ---- command line -----------------------------------------------------------------------
 
 
 def main(argv=None) -> int:
-    """``python -m fitting.tribometer``: see the module docstring and ``--help``."""
+    """``python examples/tribometer.py``: see the module docstring and ``--help``."""
     ap = argparse.ArgumentParser(
-        prog="python -m fitting.tribometer",
+        prog="examples/tribometer.py",
         description="Fit the two-state model, GMS-5, GMS-10, LuGre and Tustin to a real "
                     "tribometer record (t, x, F, normal in SI) and compare them on a "
                     "held-out part.",
