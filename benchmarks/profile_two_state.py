@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import paper
-from jaxfric._inputs import make_motion, reversal_bound
+from jaxfric.motion import make_motion, reversal_bound
 from jaxfric._models import two_state
 
 

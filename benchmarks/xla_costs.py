@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import paper
-from jaxfric._inputs import make_motion
+from jaxfric.motion import make_motion
 from jaxfric._models import two_state
 
 

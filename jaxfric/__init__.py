@@ -8,26 +8,18 @@ from . import (
     _config,  # noqa: F401  (x64 policy: must run before any array is made)
     data as data,
     effects as effects,
+    motion as motion,
     paper as paper,
 )
 from ._config import (
     enable_compilation_cache as enable_compilation_cache,
     x64_enabled as x64_enabled,
 )
-from ._inputs import (
-    make_motion as make_motion,
-    Motion as Motion,
-    reversal_bound as reversal_bound,
-)
 from ._models._base import AbstractFrictionModel as AbstractFrictionModel, SimResult as SimResult
 from ._models.gms import GMS as GMS, GMSState as GMSState
 from ._models.lugre import LuGre as LuGre, LuGreState as LuGreState
 from ._models.tustin import Tustin as Tustin
-from ._models.two_state import (
-    MemoryStack as MemoryStack,
-    TwoState as TwoState,
-    TwoStateState as TwoStateState,
-)
+from ._models.two_state import TwoState as TwoState, TwoStateState as TwoStateState
 from ._shapes import (
     AbstractShape as AbstractShape,
     PaperShape as PaperShape,
@@ -35,6 +27,7 @@ from ._shapes import (
 )
 from ._simulate import simulate as simulate, StackOverflowWarning as StackOverflowWarning
 from ._stribeck import Stribeck as Stribeck
+from .motion import reversal_bound as reversal_bound
 
 
 __version__ = "0.1.0"

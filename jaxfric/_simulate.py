@@ -9,8 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike
 
-from ._inputs import make_motion, reversal_bound
 from ._models._base import AbstractFrictionModel, SimResult
+from .motion import make_motion, reversal_bound
 
 
 class StackOverflowWarning(UserWarning):
@@ -68,6 +68,47 @@ def _uses_reversal_bound(model) -> bool:
     return any(uses(m) for m in jax.tree.leaves(model, is_leaf=uses))
 
 
+def _checked_motion(t, x, v):
+    """`t`, `x`, `v` as 1-D float arrays of one shape and dtype, finite, `t` increasing
+    (checked where the values are concrete); plain ValueErrors before any tracing."""
+    t = _as_1d("t", t)
+    x = _as_1d("x", x)
+    if x.shape != t.shape:
+        raise ValueError(f"t and x must have the same shape, got {t.shape} and {x.shape}")
+    if t.shape[0] < 1:
+        raise ValueError("need at least one sample")
+    if v is not None:
+        v = _as_1d("v", v)
+        if v.shape != t.shape:
+            raise ValueError(f"t and v must have the same shape, got {t.shape} and {v.shape}")
+    for name, a in (("t", t), ("x", x), ("v", v)):
+        if a is not None:
+            _check_values(name, a)
+    if v is None:
+        t, x = _common_float(t, x)
+    else:
+        t, x, v = _common_float(t, x, v)
+    if not isinstance(t, jax.core.Tracer):
+        dt = np.diff(np.asarray(t))
+        if (dt <= 0).any():
+            i = int(np.argmax(dt <= 0)) + 1
+            raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+    return t, x, v
+
+
+def _max_reversals(model, t, x, v, max_reversals: int | None) -> int | None:
+    """The static size of the reversal list: the user's, or counted on concrete data for
+    the models that use one (`_uses_reversal_bound`)."""
+    if max_reversals is None and _uses_reversal_bound(model) and not any(
+            isinstance(a, jax.core.Tracer) for a in (t, x, v)):
+        max_reversals = reversal_bound(t, x, v)
+    if max_reversals is not None:
+        max_reversals = operator.index(max_reversals)
+        if max_reversals < 0:
+            raise ValueError(f"max_reversals must be >= 0, got {max_reversals}")
+    return max_reversals
+
+
 def simulate(
     model: AbstractFrictionModel,
     t: ArrayLike,
@@ -103,36 +144,9 @@ def simulate(
     models) and ``jax.grad`` with respect to every parameter of `model`. Warns with
     `StackOverflowWarning` when memory entries had to be dropped (only outside traced code).
     """
-    t = _as_1d("t", t)
-    x = _as_1d("x", x)
-    if x.shape != t.shape:
-        raise ValueError(f"t and x must have the same shape, got {t.shape} and {x.shape}")
-    if t.shape[0] < 1:
-        raise ValueError("need at least one sample")
-    if v is not None:
-        v = _as_1d("v", v)
-        if v.shape != t.shape:
-            raise ValueError(f"t and v must have the same shape, got {t.shape} and {v.shape}")
-    for name, a in (("t", t), ("x", x), ("v", v)):
-        if a is not None:
-            _check_values(name, a)
-    if v is None:
-        t, x = _common_float(t, x)
-    else:
-        t, x, v = _common_float(t, x, v)
-    if not isinstance(t, jax.core.Tracer):
-        dt = np.diff(np.asarray(t))
-        if (dt <= 0).any():
-            i = int(np.argmax(dt <= 0)) + 1
-            raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+    t, x, v = _checked_motion(t, x, v)
     model = jax.tree.map(_strong, model)
-    if max_reversals is None and _uses_reversal_bound(model) and not any(
-            isinstance(a, jax.core.Tracer) for a in (t, x, v)):
-        max_reversals = reversal_bound(t, x, v)
-    if max_reversals is not None:
-        max_reversals = operator.index(max_reversals)
-        if max_reversals < 0:
-            raise ValueError(f"max_reversals must be >= 0, got {max_reversals}")
+    max_reversals = _max_reversals(model, t, x, v, max_reversals)
     result = _run(model, t, x, v, max_reversals)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(

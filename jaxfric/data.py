@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from .motion import velocity
+
 
 class DataError(ValueError):
     """A measurement cannot be used; the message names the source, column and row."""
@@ -96,13 +98,7 @@ class Measurement:
         backward difference of `x` (``v[0] = 0``), as `jaxfric.simulate` derives it."""
         if self.v is not None:
             return self.v
-        if window_s:
-            n = self.t.size
-            h = max(1, round(window_s / 2 / float(np.median(np.diff(self.t)))))
-            i = np.arange(n)
-            lo, hi = np.clip(i - h, 0, n - 1), np.clip(i + h, 0, n - 1)
-            return (self.x[hi] - self.x[lo]) / (self.t[hi] - self.t[lo])
-        return np.r_[0.0, np.diff(self.x) / np.diff(self.t)]
+        return velocity(self.t, self.x, window_s)
 
     def __repr__(self) -> str:
         cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal") if getattr(self, c) is not None]
@@ -224,6 +220,75 @@ def _from_mapping(data: Mapping[str, Any]):
     return parsed, columns
 
 
+def _read(data) -> tuple[str, list[tuple[str, str | None]], dict[str, np.ndarray]]:
+    """``(source, [(column, header unit)], {column: values})`` from a path, a DataFrame or
+    a mapping."""
+    if isinstance(data, str | Path):
+        path = Path(data)
+        source = str(path)
+        if path.suffix.lower() == ".npz":
+            parsed, columns = _read_npz(path)
+        else:
+            parsed, columns = _read_csv(path)
+    elif hasattr(data, "columns") and hasattr(data, "to_numpy"):  # a DataFrame
+        source = "<DataFrame>"
+        parsed, columns = _from_mapping({str(c): data[c].to_numpy() for c in data.columns})
+    elif isinstance(data, Mapping):
+        source = "<arrays>"
+        parsed, columns = _from_mapping(data)
+    else:
+        raise TypeError(f"cannot load a {type(data).__name__}; give a path, a DataFrame or a dict")
+    return source, parsed, columns
+
+
+def _to_si(source: str, columns: dict[str, np.ndarray], header_unit: dict, units: dict
+           ) -> list[str]:
+    """Convert `columns` in place to SI from the header's units or the caller's `units`;
+    returns the notes of what was converted."""
+    for name in units:
+        if name not in columns:
+            raise DataError(
+                f"{source}: a unit was given for column {name!r}, which is not in the data"
+            )
+    notes = []
+    for name in list(columns):
+        unit = header_unit.get(name) or units.get(name)
+        if header_unit.get(name) and name in units and units[name] != header_unit[name]:
+            raise DataError(
+                f"{source}: column {name!r} is declared in {header_unit[name]!r} in the header "
+                f"and in {units[name]!r} by the caller"
+            )
+        if unit is not None:
+            factor = _unit_factor(source, name, unit)
+            if factor != 1.0:
+                columns[name] = columns[name] * factor
+                notes.append(f"{name} converted from {unit} to {SI_UNIT[QUANTITY[name]]}")
+    return notes
+
+
+def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> None:
+    """Flip the force when asked; otherwise warn when it looks recorded with the opposite
+    sign to the friction convention."""
+    source = m.source
+    if flip_force and m.force is not None:
+        if m.F is not None:
+            m.F = -m.F
+        else:
+            m.u = -m.u
+        m.notes.append(f"{m.force_column} multiplied by -1 (--flip-force)")
+    elif check_sign and m.force is not None:
+        corr = sign_correlation(m)
+        if corr < -0.2:
+            warnings.warn(
+                f"{source}: column {m.force_column!r} is anti-correlated with the direction of "
+                f"motion (corr(sign v, {m.force_column}) = {corr:.2f}): it looks recorded with the "
+                "opposite sign to the friction convention (friction has the sign of v). "
+                "Use --flip-force (flip_force=True) if so.",
+                DataWarning,
+                stacklevel=3,  # the caller of `load`
+            )
+
+
 def load(
     data,
     *,
@@ -246,41 +311,10 @@ def load(
 
     **Returns:** a `Measurement`. **Raises:** `DataError` with a one-line message.
     """
-    if isinstance(data, str | Path):
-        path = Path(data)
-        source = str(path)
-        if path.suffix.lower() == ".npz":
-            parsed, columns = _read_npz(path)
-        else:
-            parsed, columns = _read_csv(path)
-    elif hasattr(data, "columns") and hasattr(data, "to_numpy"):  # a DataFrame
-        source = "<DataFrame>"
-        parsed, columns = _from_mapping({str(c): data[c].to_numpy() for c in data.columns})
-    elif isinstance(data, Mapping):
-        source = "<arrays>"
-        parsed, columns = _from_mapping(data)
-    else:
-        raise TypeError(f"cannot load a {type(data).__name__}; give a path, a DataFrame or a dict")
+    source, parsed, columns = _read(data)
     units = dict(units or {})
-    for name in units:
-        if name not in columns:
-            raise DataError(
-                f"{source}: a unit was given for column {name!r}, which is not in the data"
-            )
-    notes = []
     header_unit = dict(parsed)
-    for name in list(columns):
-        unit = header_unit.get(name) or units.get(name)
-        if header_unit.get(name) and name in units and units[name] != header_unit[name]:
-            raise DataError(
-                f"{source}: column {name!r} is declared in {header_unit[name]!r} in the header "
-                f"and in {units[name]!r} by the caller"
-            )
-        if unit is not None:
-            factor = _unit_factor(source, name, unit)
-            if factor != 1.0:
-                columns[name] = columns[name] * factor
-                notes.append(f"{name} converted from {unit} to {SI_UNIT[QUANTITY[name]]}")
+    notes = _to_si(source, columns, header_unit, units)
     _check(source, columns, require_force)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal")},
@@ -290,23 +324,7 @@ def load(
     )
     if header_unit.get("x") is None and "x" not in units:
         _check_length_unit(m)
-    if flip_force and m.force is not None:
-        if m.F is not None:
-            m.F = -m.F
-        else:
-            m.u = -m.u
-        m.notes.append(f"{m.force_column} multiplied by -1 (--flip-force)")
-    elif check_sign and m.force is not None:
-        corr = sign_correlation(m)
-        if corr < -0.2:
-            warnings.warn(
-                f"{source}: column {m.force_column!r} is anti-correlated with the direction of "
-                f"motion (corr(sign v, {m.force_column}) = {corr:.2f}): it looks recorded with the "
-                "opposite sign to the friction convention (friction has the sign of v). "
-                "Use --flip-force (flip_force=True) if so.",
-                DataWarning,
-                stacklevel=2,
-            )
+    _orient_force(m, flip_force=flip_force, check_sign=check_sign)
     return m
 
 
@@ -349,6 +367,14 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool) -> 
             f"{source}: column 't', row {i + 2}: time {what} ({t[i + 1]!r} after {t[i]!r}); "
             "it must be strictly increasing"
         )
+    _check_ranges(source, columns)
+    if np.ptp(columns["x"]) == 0:
+        raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
+
+
+def _check_ranges(source: str, columns: dict[str, np.ndarray]) -> None:
+    """Refuse values beyond `ABSURD` in SI (a time span from the first sample): almost
+    always a unit mistake."""
     for name, limit in ABSURD.items():
         if name in columns:
             big = np.abs(columns[name]) > limit
@@ -361,8 +387,6 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool) -> 
                     f"for a {QUANTITY[name]} in {SI_UNIT[QUANTITY[name]]} (limit {limit:g}); "
                     "is the unit right?"
                 )
-    if np.ptp(columns["x"]) == 0:
-        raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
 
 
 def _check_length_unit(m: Measurement) -> None:

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from .motion import velocity
+
 
 def _segment(x0, x1, speed, dt):
     n = max(round(abs(x1 - x0) / speed / dt), 1)
@@ -124,6 +126,37 @@ def diagnosis_truth(C: float = 9.0, l1: float = 3e-6):
                     shape=PowerShape(l1=l1, n=1.8), sigma2=50.0, C=C)
 
 
+def _typical_acceleration(t, x) -> float:
+    """The median of ``|a|`` (m/s^2) where it exceeds 1 % of its maximum (backward
+    differences): the size of the motion's velocity changes."""
+    a = np.abs(velocity(t, velocity(t, x)))
+    return float(np.median(a[a > 0.01 * a.max()]))
+
+
+def _hidden_term(name: str, m: float, t, x):
+    """The `jaxfric.effects` term of hidden effect `name` at magnitude `m` (sizes in
+    `hidden_effect_measurement`)."""
+    from . import effects as fx
+
+    phase = 0.6  # rad, of the cogging
+    make = {
+        "viscous": lambda: fx.Viscous(c_visc=75.0 * m),
+        "quadratic_drag": lambda: fx.QuadraticDrag(c_drag=11250.0 * m),
+        "presliding": lambda: fx.Presliding(F_pre=19.0, k_pre=2 * 19.0 / (100e-6 * m)),
+        "friction_lag": lambda: fx.FrictionLag(lag_gain=0.4 * m, tau=1.0),
+        "stribeck": lambda: fx.StribeckHump(dF_str=2.0 * m, v_str=1.5e-3),
+        "inertia": lambda: fx.Inertia(mass=2.0 * m / _typical_acceleration(t, x)),
+        "offset": lambda: fx.Offset(offset=1.0 * m),
+        "asymmetry": lambda: fx.Asymmetry(asym=0.05 * m),
+        "cogging": lambda: fx.Cogging(cog_sin=0.7 * m * np.cos(phase),
+                                      cog_cos=0.7 * m * np.sin(phase), period=1.7e-3),
+        "position_dependence": lambda: fx.PositionDependence.for_travel(x, pos_1=0.05 * m,
+                                                                        pos_2=0.0),
+        "drift": lambda: fx.Drift(drift_rate=0.05 * m / (t[-1] - t[0])),
+    }
+    return make[name]()
+
+
 def hidden_effect_measurement(effect=None, magnitude: float = 1.0, seed: int = 0,
                               noise: float = 0.05, dt: float = 1e-2):
     """A synthetic measurement on `diagnosis_motion` whose truth is *not* the model that
@@ -170,44 +203,15 @@ def hidden_effect_measurement(effect=None, magnitude: float = 1.0, seed: int = 0
     Returns ``(t, x, F, truth)``: times (s), positions (m), forces (N) and the true model
     (`diagnosis_truth` plus the hidden effects as `jaxfric.effects` terms).
     """
-    from . import effects as fx, simulate
+    from . import simulate
 
     names = () if effect is None else (effect,) if isinstance(effect, str) else tuple(effect)
     unknown = set(names) - set(HIDDEN_EFFECTS)
     if unknown:
         raise ValueError(f"unknown effects {sorted(unknown)}; choose from {HIDDEN_EFFECTS}")
     t, x = diagnosis_motion(dt=dt, seed=seed, separable=True)
-    m = float(magnitude)
     C = 1e6 if "friction_lag" in names else 9.0  # 1e6 N/s: a lag of 24 us, negligible
-    terms = []
-    for name in names:
-        if name == "viscous":
-            terms.append(fx.Viscous(c_visc=75.0 * m))
-        elif name == "quadratic_drag":
-            terms.append(fx.QuadraticDrag(c_drag=11250.0 * m))
-        elif name == "presliding":
-            terms.append(fx.Presliding(F_pre=19.0, k_pre=2 * 19.0 / (100e-6 * m)))
-        elif name == "friction_lag":
-            terms.append(fx.FrictionLag(lag_gain=0.4 * m, tau=1.0))
-        elif name == "stribeck":
-            terms.append(fx.StribeckHump(dF_str=2.0 * m, v_str=1.5e-3))
-        elif name == "inertia":
-            v = np.r_[0.0, np.diff(x) / np.diff(t)]
-            a = np.abs(np.r_[0.0, np.diff(v) / np.diff(t)])
-            a_typ = float(np.median(a[a > 0.01 * a.max()]))
-            terms.append(fx.Inertia(mass=2.0 * m / a_typ))
-        elif name == "offset":
-            terms.append(fx.Offset(offset=1.0 * m))
-        elif name == "asymmetry":
-            terms.append(fx.Asymmetry(asym=0.05 * m))
-        elif name == "cogging":
-            phase = 0.6  # rad
-            terms.append(fx.Cogging(cog_sin=0.7 * m * np.cos(phase),
-                                    cog_cos=0.7 * m * np.sin(phase), period=1.7e-3))
-        elif name == "position_dependence":
-            terms.append(fx.PositionDependence.for_travel(x, pos_1=0.05 * m, pos_2=0.0))
-        elif name == "drift":
-            terms.append(fx.Drift(drift_rate=0.05 * m / (t[-1] - t[0])))
+    terms = [_hidden_term(name, float(magnitude), t, x) for name in names]
     truth = diagnosis_truth(C=C)
     if "presliding" in names:  # a static truth: presliding comes only from the effect
         from . import Tustin

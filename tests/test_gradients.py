@@ -281,7 +281,7 @@ def _perturbed(model, key, index, delta):
 @eqx.filter_jit
 def _gms_slip_flags(model, t, x):
     """Per-sample slip flags of every GMS element, from the `step` API."""
-    motion = jaxfric.make_motion(t, x)
+    motion = jaxfric.motion.make_motion(t, x)
 
     def body(state, inp):
         state, _ = model.step(state, *inp)

@@ -234,7 +234,7 @@ def test_reversal_bound_and_max_reversals():
     model = paper.two_state()
     for t, x, v in zip(T, X, V):
         for vel in (None, v):
-            count = int(jnp.sum(jaxfric.make_motion(t, x, vel).reversal))
+            count = int(jnp.sum(jaxfric.motion.make_motion(t, x, vel).reversal))
             bound = jaxfric.reversal_bound(t, x, vel)
             assert 0 < count <= bound <= t.shape[0]
             ref = jaxfric.simulate(model, t, x, vel)

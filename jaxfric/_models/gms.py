@@ -6,10 +6,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._inputs import Motion
 from .._numerics import as_param, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
+from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
 
 

@@ -4,9 +4,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from .._inputs import Motion
 from .._numerics import as_param, linear_recurrence
 from .._stribeck import Stribeck
+from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
 
 

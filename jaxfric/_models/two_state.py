@@ -24,10 +24,10 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from .._inputs import Motion
 from .._numerics import as_param, linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
+from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
 
 

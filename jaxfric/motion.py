@@ -1,7 +1,16 @@
-"""Turning a measured or commanded motion ``(t, x[, v])`` into model inputs.
+"""The motion ``(t, x[, v])``: derivatives, direction, reversals, and the model inputs.
 
-Everything here is vectorised over samples; the models' sequential parts get these arrays.
-See docs/algorithm.md section 1 for the rules (one direction signal, backward difference).
+One place for what every layer derives from a motion: the velocity by backward difference
+(what `jaxfric.simulate` uses, and a causal controller can compute) or by a central
+difference over a window (smoother, for identification), the direction of motion and its
+reversals, and the travel since the last reversal. `make_motion` turns a motion into the
+per-sample arrays the models need (`Motion`). Everything here is vectorised over samples;
+the models' sequential parts get these arrays. See docs/algorithm.md section 1 for the
+rules (one direction signal, backward difference).
+
+The functions on NumPy arrays (`velocity`, `reversals`, `travel_since_reversal`) are for
+data analysis outside compiled code; `backward_velocity`, `make_motion` and `Motion` are
+JAX and run under ``jit``/``vmap``/``grad``.
 """
 
 import equinox as eqx
@@ -53,6 +62,49 @@ def backward_velocity(t: Array, x: Array) -> Array:
     dx = jnp.diff(x, prepend=x[:1])
     dt = jnp.diff(t, prepend=t[:1])
     return jnp.where(dt > 0, dx / jnp.where(dt > 0, dt, 1.0), 0.0)
+
+
+def velocity(t, x, window_s: float | None = None) -> np.ndarray:
+    """Velocity (m/s for t in s, x in m) of concrete arrays.
+
+    Without `window_s`: the backward difference ``v_0 = 0``, ``v_n = (x_n - x_{n-1}) /
+    (t_n - t_{n-1})``, as `jaxfric.simulate` derives it. With `window_s` (s): the central
+    difference of `x` over ``+-h`` samples, ``h`` = half the window in median sample steps
+    (at least 1; one-sided at the ends), which smooths quantised positions before they are
+    differentiated again."""
+    t, x = np.asarray(t, dtype=np.float64), np.asarray(x, dtype=np.float64)
+    if not window_s:
+        return np.r_[0.0, np.diff(x) / np.diff(t)]
+    n = t.size
+    h = max(1, round(window_s / 2 / float(np.median(np.diff(t)))))
+    i = np.arange(n)
+    lo, hi = np.clip(i - h, 0, n - 1), np.clip(i + h, 0, n - 1)
+    return (x[hi] - x[lo]) / (t[hi] - t[lo])
+
+
+def reversals(d) -> tuple[np.ndarray, np.ndarray]:
+    """``(reversal, start)`` for the direction signal `d` (an array in {-1, 0, 1}, e.g.
+    ``np.sign(v)``): `reversal` is true at the first moving sample whose direction differs
+    from the last motion's (the rule of `Motion.reversal`, also across rests), and
+    ``start[n]`` is the index of the sample before the last reversal at or before `n` (the
+    reversal point), 0 before the first reversal."""
+    d = np.asarray(d)
+    idx = np.arange(d.size)
+    last = np.maximum.accumulate(np.where(d != 0, idx, 0))
+    dl = d[last]
+    rev = np.r_[False, (dl[1:] != dl[:-1]) & (dl[:-1] != 0)]
+    start = np.maximum.accumulate(np.where(rev, idx - 1, 0))
+    return rev, start
+
+
+def travel_since_reversal(x, v=None) -> np.ndarray:
+    """``|x_n - x_r|`` (m): distance of every sample from the last reversal point ``x_r``
+    (from ``x_0`` before the first reversal). The direction is ``sign(v)``, or the sign of
+    the position step when `v` is not given."""
+    x = np.asarray(x, dtype=np.float64)
+    d = np.sign(np.r_[0.0, np.diff(x)] if v is None else np.asarray(v))
+    _, start = reversals(d)
+    return np.abs(x - x[start])
 
 
 def reversal_bound(t, x, v=None) -> int:
