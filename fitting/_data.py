@@ -6,29 +6,18 @@ of weight 0 that continue the time axis and hold the last position (the model is
 there, so padding creates no events). One shape for all stages means one compilation.
 """
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array
+
+from jaxfric.data import Measurement
+from jaxfric.motion import velocity
 
 
-class Dataset(eqx.Module):
-    """One experiment, SI units, 1-D arrays of equal length.
-
-    - `t`: sample times, s, strictly increasing.
-    - `x`: positions, m.
-    - `F`: measured friction force, N (sign convention of the models: the sign of ``v``).
-    - `v`: velocities, m/s, or ``None`` for the backward difference of `x` (as
-      `jaxfric.simulate`).
-    - `weights`: per-sample weights >= 0 (inverse relative variances; 0 drops a sample),
-      or ``None`` for all ones.
-    """
-
-    t: Array
-    x: Array
-    F: Array
-    v: Array | None = None
-    weights: Array | None = None
+#: One experiment for a fit: `jaxfric.data.Measurement` (the same class), constructed as
+#: ``Dataset(t, x, F, v=None, weights=None)`` in SI (s, m, N, m/s; weights >= 0, 0 drops a
+#: sample, ``None`` for ones; ``v`` ``None`` for the backward difference of ``x``, as
+#: `jaxfric.simulate`).
+Dataset = Measurement
 
 
 def _array(name: str, a, where: str) -> np.ndarray:
@@ -81,11 +70,6 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
     return Dataset(**out)
 
 
-def backward_velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``v_0 = 0``, ``v_n = (x_n - x_{n-1}) / (t_n - t_{n-1})`` (as `jaxfric.simulate`)."""
-    return np.concatenate([[0.0], np.diff(x) / np.diff(t)])
-
-
 def pad(data: Dataset, n: int) -> Dataset:
     """`data` (checked, NumPy) padded to `n` samples of weight 0 (see module docstring)."""
     m = data.t.shape[0]
@@ -118,7 +102,7 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
     padded = []
     for d in datasets:
         if any_v and d.v is None:
-            d = Dataset(t=d.t, x=d.x, F=d.F, v=backward_velocity(d.t, d.x), weights=d.weights)
+            d = Dataset(t=d.t, x=d.x, F=d.F, v=velocity(d.t, d.x), weights=d.weights)
         padded.append(pad(d, n))
 
     def field(name):

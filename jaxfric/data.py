@@ -21,12 +21,14 @@ Irregular sampling is kept as it is: every model takes the time column as given.
 """
 
 import csv
+import dataclasses
 import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import equinox as eqx
 import numpy as np
 
 from .motion import velocity
@@ -61,23 +63,33 @@ ABSURD = {"t": 1e7, "x": 1e3, "v": 1e3, "a": 1e6, "F": 1e7, "u": 1e7, "normal": 
 _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z_0-9]*)\s*(?:\[\s*([^\]]*?)\s*\])?\s*$")
 
 
-class Measurement:
-    """One experiment in SI units; 1-D float64 arrays of equal length.
+class Measurement(eqx.Module):
+    """One experiment in SI units: 1-D float arrays of equal length, and where it came from.
+
+    The one container for measured data: `load` returns it, and the fits take it
+    (`fitting.Dataset` is this class).
 
     - `t` (s), `x` (m): always present.
-    - `F` (N): friction force, sign of ``v``, or ``None``; `u` (N): drive force, or ``None``.
-    - `v` (m/s), `a` (m/s^2), `normal` (N): ``None`` unless given.
-    - `source`: where it came from (file name or ``"<arrays>"``); `extra`: other columns;
-      `notes`: what was converted or flipped while loading.
+    - `F` (N): friction force, sign of ``v``, or ``None``.
+    - `v` (m/s): velocity, or ``None`` (then derived from `x`, see `velocity`).
+    - `weights`: per-sample weights >= 0 for a fit (0 drops a sample), or ``None`` (ones).
+    - `u` (N): drive force (friction plus inertia and offsets), or ``None``; `a` (m/s^2)
+      and `normal` (N): ``None`` unless given.
+    - `source`: where it came from (file name or ``"<arrays>"``); `notes`: what was
+      converted or flipped while loading; `extra`: other columns by name.
     """
 
-    def __init__(self, t, x, F=None, u=None, v=None, a=None, normal=None, *,
-                 source="<arrays>", extra=None, notes=None):
-        self.t, self.x, self.F, self.u = t, x, F, u
-        self.v, self.a, self.normal = v, a, normal
-        self.source = source
-        self.extra = dict(extra or {})
-        self.notes = list(notes or [])
+    t: Any
+    x: Any
+    F: Any = None
+    v: Any = None
+    weights: Any = None
+    u: Any = None
+    a: Any = None
+    normal: Any = None
+    source: str = eqx.field(static=True, default="<arrays>")
+    notes: tuple[str, ...] = eqx.field(static=True, default=(), converter=tuple)
+    extra: dict = eqx.field(default_factory=dict)
 
     @property
     def force(self) -> np.ndarray:
@@ -266,16 +278,15 @@ def _to_si(source: str, columns: dict[str, np.ndarray], header_unit: dict, units
     return notes
 
 
-def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> None:
-    """Flip the force when asked; otherwise warn when it looks recorded with the opposite
-    sign to the friction convention."""
+def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> Measurement:
+    """`m` with its force flipped when asked; otherwise `m`, with a warning when its force
+    looks recorded with the opposite sign to the friction convention."""
     source = m.source
     if flip_force and m.force is not None:
-        if m.F is not None:
-            m.F = -m.F
-        else:
-            m.u = -m.u
-        m.notes.append(f"{m.force_column} multiplied by -1 (--flip-force)")
+        column = m.force_column
+        flipped = {column: -getattr(m, column)}
+        notes = (*m.notes, f"{column} multiplied by -1 (--flip-force)")
+        return dataclasses.replace(m, **flipped, notes=notes)
     elif check_sign and m.force is not None:
         corr = sign_correlation(m)
         if corr < -0.2:
@@ -287,6 +298,7 @@ def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> None
                 DataWarning,
                 stacklevel=3,  # the caller of `load`
             )
+    return m
 
 
 def load(
@@ -324,8 +336,7 @@ def load(
     )
     if header_unit.get("x") is None and "x" not in units:
         _check_length_unit(m)
-    _orient_force(m, flip_force=flip_force, check_sign=check_sign)
-    return m
+    return _orient_force(m, flip_force=flip_force, check_sign=check_sign)
 
 
 def sign_correlation(m: Measurement) -> float:
