@@ -89,6 +89,8 @@ import jaxfric
 from fitting import _params, Dataset, fit, FitResult, NormalizedPaperShape
 from fitting._staged import _estimate_l1
 from jaxfric import paper
+from jaxfric._fields import parameter_info
+from jaxfric.motion import travel_since_reversal, velocity
 
 
 #: Default data file: ``../shared/data/tribometer.csv`` relative to the repository root.
@@ -114,21 +116,14 @@ FREE = {
 #: Quick mode keeps every `QUICK_STRIDE`-th moving sample for the fit (`thin`).
 QUICK_STRIDE = 3
 
-#: SI unit of every reported parameter name.
-UNITS = {
-    "Fs": "N", "Fc": "N", "Vs": "m/s", "delta": "-", "sigma0": "N/m", "sigma1": "N s/m",
-    "sigma2": "N s/m", "a": "N", "b": "m^-alpha", "c": "N/m^4", "alpha": "-", "beta": "m",
-    "beta_rel": "-", "curvature": "-", "quartic": "-", "l1": "m/N", "C": "N/s", "nu": "-",
-    "k": "N/m",
-}
-
 _SHAPE_NAMES = ("l1", "alpha", "beta_rel", "curvature", "quartic")
 
 
-def unit(name: str) -> str:
-    """SI unit of a reported parameter name (GMS ``nu_i``, ``k_i`` included)."""
-    base = name.rsplit("_", 1)[0] if name.startswith(("nu_", "k_")) else name
-    return UNITS.get(base, "")
+def units(f: ModelFit) -> dict[str, str]:
+    """SI unit of every reported parameter of a fit (the paper's names and, for the
+    two-state model, the `NormalizedPaperShape` coordinates), as declared on the fields."""
+    shape = {i.name: i.unit for i in parameter_info(NormalizedPaperShape(1.0, 0.5, 0.1, 0.0, 0.0))}
+    return {**shape, **_params.natural_units(f.result.model)}
 
 
 # ---- data -------------------------------------------------------------------------------
@@ -163,13 +158,8 @@ class Record:
     split: int = 0
 
 
-def _velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Backward difference (m/s), ``v[0] = 0``: what `jaxfric.simulate` uses."""
-    return np.concatenate([[0.0], np.diff(x) / np.diff(t)])
-
-
 def _sign_correlation(t, x, F) -> float:
-    v = _velocity(t, x)
+    v = velocity(t, x)
     moving = v != 0
     if moving.sum() < 3 or np.std(F[moving]) == 0:
         return float("nan")
@@ -319,20 +309,6 @@ def reversal_travel(x, F, level: float = 0.9) -> float:
 REGIMES = ("rest", "presliding", "sliding")
 
 
-def travel_since_reversal(x) -> np.ndarray:
-    """Distance (m) of every sample from the position at the last change of direction
-    (from the first sample before any motion)."""
-    x = np.asarray(x, dtype=np.float64)
-    out = np.zeros_like(x)
-    anchor, last = x[0], 0.0
-    for n, step in enumerate(np.diff(x), start=1):
-        d = np.sign(step)
-        if d != 0 and d != last:
-            anchor, last = x[n - 1], d
-        out[n] = abs(x[n] - anchor)
-    return out
-
-
 def regimes(x, travel: float) -> dict[str, np.ndarray]:
     """Boolean masks over the samples of `x` (m): ``"rest"`` (no position change since the
     previous sample), ``"presliding"`` (moving, less than `travel` (m) from the last
@@ -371,7 +347,7 @@ class Scales:
 def scales(t, x, F) -> Scales:
     """`Scales` of the measurement ``(t, x, F)`` (s, m, N; F with the sign of v)."""
     t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
-    v = _velocity(t, x)
+    v = velocity(t, x)
     moving = v != 0
     if moving.sum() < 10:
         raise ValueError("the record hardly moves: cannot scale a starting model")
@@ -597,7 +573,7 @@ def describe(record: Record, n_solver: int | None = None) -> str:
     number of samples given to the solver."""
     t = record.t
     sign = "F flipped: F_model = -F_file" if record.sign_flipped else "F used as in the file"
-    speed = np.abs(_velocity(t, record.x))
+    speed = np.abs(velocity(t, record.x))
     val = (f"validation: t >= {t[record.split]:.3f} s ({t.size - record.split} samples)"
            if record.split < t.size else "no validation part")
     return "\n".join([
@@ -660,9 +636,10 @@ def format_parameters(f: ModelFit) -> str:
     rows = [(k, k, v, f.stderr[k]) for k, v in f.params.items()]
     rows += [(f"{k} (normalised shape)", k, f.shape_params[k], f.shape_stderr[k])
              for k in f.shape_params if k not in ("l1", "alpha")]
+    unit = units(f)
     for label, k, v, s in rows:
         # Held parameters have exactly zero rows in the covariance.
-        lines.append(f"| {label} | {v:.6g} | {f'{s:.3g}' if s > 0 else 'held'} | {unit(k)} |")
+        lines.append(f"| {label} | {v:.6g} | {f'{s:.3g}' if s > 0 else 'held'} | {unit[k]} |")
     if isinstance(f.result.model, jaxfric.TwoState):
         m = f.result.model
         fs = float(m.stribeck.Fs)
@@ -703,7 +680,7 @@ def to_json(report: Report) -> dict:
             "overflow": f.overflow,
             "params": {k: _num(v) for k, v in f.params.items()},
             "stderr": {k: _num(v) for k, v in f.stderr.items()},
-            "units": {k: unit(k) for k in f.params},
+            "units": {k: units(f)[k] for k in f.params},
         }
         if f.shape_params:
             entry["shape_normalized"] = {k: _num(v) for k, v in f.shape_params.items()}
@@ -847,7 +824,7 @@ def _residuals_figure(plt, r, fits):
     """Two-state error against position, and the measured sliding level over time."""
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.8))
     if "two_state" in fits:
-        v = _velocity(r.t, r.x)
+        v = velocity(r.t, r.x)
         err = fits["two_state"].force - r.F
         for ax, d, label in ((axes[0], 1.0, "motion toward +x"), (axes[1], -1.0,
                                                                  "motion toward -x")):

@@ -18,6 +18,7 @@ import numpy as np
 from jaxtyping import Array
 
 import jaxfric
+from jaxfric._fields import parameter_info
 
 from ._shape import NormalizedPaperShape
 from ._transforms import AbstractTransform, Exp, Identity, ParamProps, Sigmoid, Simplex
@@ -27,40 +28,17 @@ from ._transforms import AbstractTransform, Exp, Identity, ParamProps, Sigmoid, 
 _ORDER = ("Fs", "Fc", "Vs", "delta", "sigma0", "sigma1", "sigma2", "a", "b", "c", "alpha",
           "beta", "beta_rel", "curvature", "quartic", "l1", "n", "C", "nu", "k")
 
-#: Groups accepted by ``free=``, besides single names.
-GROUPS = {
-    "stribeck": ("Fs", "Fc", "Vs", "delta"),
-    "shape": ("a", "b", "c", "alpha", "beta", "beta_rel", "curvature", "quartic", "l1", "n"),
-}
-
-# Default transforms by parameter name; anything else is `Identity` (scaled).
-_POSITIVE = ("Fs", "Fc", "Vs", "delta", "sigma0", "sigma1", "sigma2", "C", "l1", "beta",
-             "beta_rel", "k", "period", "v_str", "F_pre", "k_pre", "tau")
-
-
-def _default_transform(name: str) -> AbstractTransform:
-    if name in _POSITIVE:
+def _transform(constraint) -> AbstractTransform:
+    """The fit's transform for a parameter's declared constraint (`jaxfric._fields`)."""
+    if constraint == "positive":
         return Exp()
-    if name == "lag_gain":
-        return Sigmoid(0.0, 1.0)  # a fraction of the force (jaxfric.effects.FrictionLag)
-    if name == "alpha":
-        # Concave power law: kappa decreasing needs 0 < alpha <= 1 (paper: 0.3).
-        return Sigmoid(0.0, 1.0)
-    if name == "n":
-        return Exp(lower=1.0)  # PowerShape needs n >= 1
-    if name == "nu":
+    if constraint == "simplex":
         return Simplex()
-    if name == "quartic":
-        # F(X) = 2*Fs / (1 - quartic) must stay positive; below 0 means c < 0 (allowed).
-        return Sigmoid(-1.0, 0.95)
+    if isinstance(constraint, tuple) and constraint[0] == "interval":
+        return Sigmoid(constraint[1], constraint[2])
+    if isinstance(constraint, tuple) and constraint[0] == "above":
+        return Exp(lower=constraint[1])
     return Identity()
-
-
-def _key_name(key) -> str:
-    for attr in ("name", "key", "idx"):
-        if hasattr(key, attr):
-            return str(getattr(key, attr))
-    return str(key)
 
 
 def parameters(model) -> tuple[object, object]:
@@ -70,22 +48,22 @@ def parameters(model) -> tuple[object, object]:
 
 def leaf_names(model) -> list[str]:
     """Name of every parameter leaf of `model`, in ``jax.tree.leaves`` order."""
-    params, _ = parameters(model)
-    leaves = jax.tree_util.tree_flatten_with_path(params)[0]
-    return [_key_name(path[-1]) for path, _ in leaves]
+    return [info.name for info in parameter_info(model)]
 
 
 def default_props(model, free: Iterable[str] | None = None):
     """The default properties pytree for `model` (see the module docstring).
 
-    Positive quantities (Fs, Fc, Vs, delta, sigma0/1/2, C, l1, beta, k_i, ...) get `Exp`
-    (log scale), ``alpha`` a `Sigmoid` on (0, 1), the GMS weights ``nu`` a `Simplex`, PowerShape's
-    ``n`` `Exp` above 1, the rest `Identity`. Every ``scale`` is left to the starting value.
-    `free`: names (or groups, see `GROUPS`) to fit; ``None`` frees everything.
+    Each parameter's transform follows the constraint declared on its field: positive
+    quantities (Fs, Fc, Vs, delta, sigma0/1/2, C, l1, beta, k_i, ...) get `Exp` (log scale),
+    ``alpha`` a `Sigmoid` on (0, 1), the GMS weights ``nu`` a `Simplex`, PowerShape's ``n``
+    `Exp` above 1, unconstrained ones `Identity`. Every ``scale`` is left to the starting
+    value. `free`: names (or groups declared on the fields: ``"stribeck"``, ``"shape"``) to
+    fit; ``None`` frees everything.
     """
     params, _ = parameters(model)
-    names = iter(leaf_names(model))
-    props = jax.tree.map(lambda _: ParamProps(_default_transform(next(names))), params)
+    infos = iter(parameter_info(model))
+    props = jax.tree.map(lambda _: ParamProps(_transform(next(infos).constraint)), params)
     return props if free is None else set_free(model, props, free)
 
 
@@ -104,15 +82,16 @@ def set_free(model, props, free: Iterable[str]):
     """
     if isinstance(free, str):
         free = (free,)
-    names = leaf_names(model)
+    infos = parameter_info(model)
+    names = [i.name for i in infos]
+    groups = sorted({i.group for i in infos if i.group is not None})
     wanted = set()
     for item in free:
-        group = GROUPS.get(item, (item,))
-        hits = [g for g in group if g in names]
+        hits = [i.name for i in infos if item in (i.name, i.group)]
         if not hits:
             raise ValueError(
                 f"{type(model).__name__} has no parameter {item!r}; its parameters are "
-                f"{names} (groups: {sorted(GROUPS)})"
+                f"{names} (groups: {groups})"
             )
         wanted.update(hits)
     new = [
@@ -341,3 +320,17 @@ def natural_params(model) -> dict[str, Array]:
     """``{name: value}`` of every parameter of `model` in SI units and the paper's names
     (two-state: Fs, Fc, Vs, delta, sigma2, a, b, c, alpha, beta, l1, C)."""
     return dict(zip(natural_names(model), natural_vector(model)))
+
+
+def natural_units(model) -> dict[str, str]:
+    """``{name: SI unit}`` for `natural_names` (vector entries ``nu_i``, ``k_i`` share their
+    leaf's unit), from the units declared on the model's fields."""
+    units = {}
+    infos = parameter_info(model)
+    params, _ = parameters(model)
+    for info, leaf in zip(infos, jax.tree.leaves(params)):
+        if leaf.shape == ():
+            units[info.name] = info.unit
+        else:
+            units.update({f"{info.name}_{j + 1}": info.unit for j in range(leaf.size)})
+    return {name: units[name] for name in natural_names(model)}

@@ -35,7 +35,8 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 import jaxfric
-from jaxfric._numerics import as_param, safe_div, safe_pow
+from jaxfric._fields import param
+from jaxfric._numerics import safe_div, safe_pow
 
 
 # Below this |curvature| the exponential's ratio is replaced by its series (see _ratio).
@@ -64,11 +65,13 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
     - `quartic`: share of the ``c*x**4`` term at ``X``, dimensionless, < 1 (paper: 0.102).
     """
 
-    l1: Array = eqx.field(converter=as_param)
-    alpha: Array = eqx.field(converter=as_param)
-    beta_rel: Array = eqx.field(converter=as_param)
-    curvature: Array = eqx.field(converter=as_param)
-    quartic: Array = eqx.field(converter=as_param)
+    l1: Array = param("m/N", constraint="positive", group="shape", role="presliding")
+    alpha: Array = param("-", constraint=("interval", 0.0, 1.0), group="shape", role="presliding")
+    beta_rel: Array = param("-", constraint="positive", group="shape", role="presliding")
+    curvature: Array = param("-", group="shape", role="presliding")
+    # F(X) = 2*Fs / (1 - quartic) must stay positive; below 0 means c < 0 (allowed).
+    quartic: Array = param("-", constraint=("interval", -1.0, 0.95), group="shape",
+                           role="presliding")
 
     def _profile(self, u, s_st):
         del s_st  # the normalised coordinates make Pi independent of Fs

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxfric
+from jaxfric._fields import parameter_info
 
 from . import _fit, _params
 from ._data import check_dataset, Dataset, stack
@@ -157,18 +158,10 @@ def initial_stribeck(segments: Segments) -> tuple[jaxfric.Stribeck, float]:
     return jaxfric.Stribeck(Fs=fs, Fc=fc, Vs=vs, delta=1.0), float(sigma2)
 
 
-def _presliding_names(model) -> tuple[str, ...]:
-    if isinstance(model, jaxfric.TwoState):
-        return ("shape",)
-    if isinstance(model, jaxfric.GMS):
-        return ("nu", "k")
-    if isinstance(model, jaxfric.LuGre):
-        return ("sigma0", "sigma1")
-    return ()
-
-
-def _lag_names(model) -> tuple[str, ...]:
-    return ("C",) if isinstance(model, (jaxfric.TwoState, jaxfric.GMS)) else ()
+def _names_with_role(model, role: str) -> tuple[str, ...]:
+    """Names of `model`'s parameters whose field declares `role` (``"presliding"``,
+    ``"lag"``; see `jaxfric._fields.param`)."""
+    return tuple(i.name for i in parameter_info(model) if i.role == role)
 
 
 def _estimate_l1(model: jaxfric.TwoState, data: Dataset, level: float = 0.9) -> float | None:
@@ -306,7 +299,7 @@ def fit_staged(
                                  solver, max_steps)
 
     joint_free = ["stribeck", "sigma2"]
-    names = _presliding_names(model)
+    names = _names_with_role(current, "presliding")
     if "presliding" in checked and names:
         if estimate_l1 and isinstance(current, jaxfric.TwoState):
             l1 = _estimate_l1(current, checked["presliding"])
@@ -314,7 +307,7 @@ def fit_staged(
                 current = eqx.tree_at(lambda m: m.shape.l1, current, jnp.asarray(l1))
         stages["presliding"], current = run(current, names, {"presliding"})
         joint_free += names
-    names = _lag_names(model)
+    names = _names_with_role(current, "lag")
     if "lag" in checked and names:
         stages["lag"], current = run(current, names, {"lag"})
         joint_free += names

@@ -20,6 +20,7 @@ import numpy as np
 
 import jaxfric
 from jaxfric import paper
+from jaxfric.motion import travel_since_reversal, velocity
 
 from ._data import Dataset
 from ._shape import NormalizedPaperShape
@@ -27,12 +28,6 @@ from ._staged import _estimate_l1, constant_velocity_segments, initial_stribeck
 
 
 KINDS = ("two-state", "gms", "lugre", "tustin")
-
-
-def _velocity(t, x, v):
-    if v is not None:
-        return np.asarray(v, dtype=np.float64)
-    return np.r_[0.0, np.diff(x) / np.diff(t)]
 
 
 def _level_stribeck(F, vel):
@@ -60,17 +55,6 @@ def _strokes(x) -> float:
     return float(np.median(travel)) if travel.size else float(np.ptp(x))
 
 
-def _travel_since_reversal(x) -> np.ndarray:
-    """|x - x at the last reversal| per sample, m."""
-    d = np.sign(np.r_[0.0, np.diff(x)])
-    idx = np.arange(x.size)
-    last = np.maximum.accumulate(np.where(d != 0, idx, 0))
-    dl = d[last]
-    turn = np.r_[False, (dl[1:] != dl[:-1]) & (dl[:-1] != 0)]
-    start = np.maximum.accumulate(np.where(turn, idx - 1, 0))
-    return np.abs(x - x[start])
-
-
 def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
     """A starting model of `kind` (``"two-state"``, ``"gms"``, ``"lugre"``, ``"tustin"``)
     scaled to the measurement ``(t, x, F[, v])`` in SI (s, m, N, m/s); see the module
@@ -80,11 +64,11 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
     t = np.asarray(t, dtype=np.float64)
     x = np.asarray(x, dtype=np.float64)
     F = np.asarray(F, dtype=np.float64)
-    vel = _velocity(t, x, v)
+    vel = velocity(t, x) if v is None else np.asarray(v, dtype=np.float64)
     # Two candidate curves; keep the one whose static force s(v) + sigma2*v fits better
     # where the data surely slide: moving, beyond half the median stroke from the last
     # reversal (segment means can be presliding, not sliding, on short strokes).
-    sliding = (vel != 0) & (_travel_since_reversal(x) > 0.5 * _strokes(x))
+    sliding = (vel != 0) & (travel_since_reversal(x) > 0.5 * _strokes(x))
     if sliding.sum() < 3:
         sliding = vel != 0
     candidates = [_level_stribeck(F, vel)]

@@ -17,7 +17,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from ._numerics import as_param, safe_div, safe_pow
+from ._fields import param
+from ._numerics import safe_div, safe_pow
 
 
 class AbstractShape(eqx.Module):
@@ -69,12 +70,13 @@ class PaperShape(AbstractShape):
     **Arguments:** `a` (N), `b` (m^-alpha), `c` (N/m^4), `alpha` (-), `beta` (m), `l1` (m/N).
     """
 
-    a: Array = eqx.field(converter=as_param)
-    b: Array = eqx.field(converter=as_param)
-    c: Array = eqx.field(converter=as_param)
-    alpha: Array = eqx.field(converter=as_param)
-    beta: Array = eqx.field(converter=as_param)
-    l1: Array = eqx.field(converter=as_param)
+    a: Array = param("N", group="shape", role="presliding")
+    b: Array = param("m^-alpha", group="shape", role="presliding")
+    c: Array = param("N/m^4", group="shape", role="presliding")
+    # Concave power law: kappa decreasing needs 0 < alpha <= 1 (paper: 0.3).
+    alpha: Array = param("-", constraint=("interval", 0.0, 1.0), group="shape", role="presliding")
+    beta: Array = param("m", constraint="positive", group="shape", role="presliding")
+    l1: Array = param("m/N", constraint="positive", group="shape", role="presliding")
 
     def saw_tooth(self, x: ArrayLike) -> Array:
         """``F(x)`` in N for a displacement ``x`` (m) from a reversal, ``x >= 0``."""
@@ -98,8 +100,8 @@ class PowerShape(AbstractShape):
     **Arguments:** `l1` (m/N), `n` (dimensionless; ``n = 1`` is linear, larger is more curved).
     """
 
-    l1: Array = eqx.field(converter=as_param)
-    n: Array = eqx.field(converter=as_param)
+    l1: Array = param("m/N", constraint="positive", group="shape", role="presliding")
+    n: Array = param("-", constraint=("above", 1.0), group="shape", role="presliding")
 
     def _profile(self, u, s_st):
         return 1.0 - safe_pow(1.0 - u, self.n)

@@ -4,7 +4,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from ._numerics import as_param, safe_div, safe_pow
+from ._fields import param
+from ._numerics import safe_div, safe_pow
 
 
 class Stribeck(eqx.Module):
@@ -21,10 +22,10 @@ class Stribeck(eqx.Module):
     the side ``D`` of the last motion (see docs/algorithm.md section 2).
     """
 
-    Fs: Array = eqx.field(converter=as_param)
-    Fc: Array = eqx.field(converter=as_param)
-    Vs: Array = eqx.field(converter=as_param)
-    delta: Array = eqx.field(converter=as_param)
+    Fs: Array = param("N", constraint="positive", group="stribeck")
+    Fc: Array = param("N", constraint="positive", group="stribeck")
+    Vs: Array = param("m/s", constraint="positive", group="stribeck")
+    delta: Array = param("-", constraint="positive", group="stribeck")
 
     def magnitude(self, v: ArrayLike) -> Array:
         """``|s(v)|`` in N; equals ``Fs`` at ``v = 0`` (the limit), with finite gradients."""

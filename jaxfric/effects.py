@@ -38,8 +38,9 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
+from ._fields import param
 from ._models._base import AbstractFrictionModel, SimResult
-from ._numerics import as_param, linear_recurrence, safe_div
+from ._numerics import linear_recurrence, safe_div
 from .motion import Motion
 
 
@@ -90,7 +91,7 @@ class Viscous(AbstractEffect):
     """``c_visc * v``: extra linear damping, N s/m."""
 
     name: ClassVar[str] = "viscous"
-    c_visc: Array = eqx.field(converter=as_param, default=0.0)
+    c_visc: Array = param("N s/m", default=0.0)
 
     def term(self, s):
         return self.c_visc * s.v
@@ -103,7 +104,7 @@ class QuadraticDrag(AbstractEffect):
     """``c_drag * v * |v|``, N s^2/m^2."""
 
     name: ClassVar[str] = "quadratic_drag"
-    c_drag: Array = eqx.field(converter=as_param, default=0.0)
+    c_drag: Array = param("N s^2/m^2", default=0.0)
 
     def term(self, s):
         return self.c_drag * s.v * jnp.abs(s.v)
@@ -116,8 +117,8 @@ class StribeckHump(AbstractEffect):
     """``dF_str * exp(-(v/v_str)^2) * sign(v)``: more (or less) friction at low speed."""
 
     name: ClassVar[str] = "stribeck"
-    dF_str: Array = eqx.field(converter=as_param, default=0.0)
-    v_str: Array = eqx.field(converter=as_param, default=1e-3)
+    dF_str: Array = param("N", default=0.0)
+    v_str: Array = param("m/s", constraint="positive", default=1e-3)
 
     def term(self, s):
         return self.dF_str * jnp.exp(-(safe_div(s.v, self.v_str) ** 2)) * jnp.sign(s.v)
@@ -132,7 +133,7 @@ class Inertia(AbstractEffect):
     a drive force, or a mis-calibrated one."""
 
     name: ClassVar[str] = "inertia"
-    mass: Array = eqx.field(converter=as_param, default=0.0)
+    mass: Array = param("kg", default=0.0)
 
     def term(self, s):
         return self.mass * s.a
@@ -145,7 +146,7 @@ class Offset(AbstractEffect):
     """A constant force (N): gravity on an inclined axis, a sensor zero."""
 
     name: ClassVar[str] = "offset"
-    offset: Array = eqx.field(converter=as_param, default=0.0)
+    offset: Array = param("N", default=0.0)
 
     def term(self, s):
         return jnp.broadcast_to(self.offset, s.t.shape)
@@ -159,7 +160,7 @@ class Asymmetry(AbstractEffect):
     lower by ``1 - asym`` in the negative one (dimensionless)."""
 
     name: ClassVar[str] = "asymmetry"
-    asym: Array = eqx.field(converter=as_param, default=0.0)
+    asym: Array = param("-", default=0.0)
 
     def term(self, s):
         return self.asym * jnp.abs(s.base)
@@ -172,9 +173,9 @@ class Cogging(AbstractEffect):
     """``cog_sin * sin(2 pi x / period) + cog_cos * cos(2 pi x / period)`` (N; period m)."""
 
     name: ClassVar[str] = "cogging"
-    cog_sin: Array = eqx.field(converter=as_param, default=0.0)
-    cog_cos: Array = eqx.field(converter=as_param, default=0.0)
-    period: Array = eqx.field(converter=as_param, default=1e-3)
+    cog_sin: Array = param("N", default=0.0)
+    cog_cos: Array = param("N", default=0.0)
+    period: Array = param("m", constraint="positive", default=1e-3)
 
     def term(self, s):
         phase = 2 * jnp.pi * safe_div(s.x, self.period)
@@ -190,8 +191,8 @@ class PositionDependence(AbstractEffect):
     travel (`x_mid`, `x_half` in m, fixed at construction: `for_travel`)."""
 
     name: ClassVar[str] = "position_dependence"
-    pos_1: Array = eqx.field(converter=as_param, default=0.0)
-    pos_2: Array = eqx.field(converter=as_param, default=0.0)
+    pos_1: Array = param("-", default=0.0)
+    pos_2: Array = param("-", default=0.0)
     x_mid: float = eqx.field(static=True, default=0.0)
     x_half: float = eqx.field(static=True, default=1.0)
 
@@ -215,7 +216,7 @@ class Drift(AbstractEffect):
     (warm-up, wear), 1/s."""
 
     name: ClassVar[str] = "drift"
-    drift_rate: Array = eqx.field(converter=as_param, default=0.0)
+    drift_rate: Array = param("1/s", default=0.0)
 
     def term(self, s):
         return s.base * self.drift_rate * (s.t - s.t0)
@@ -234,8 +235,8 @@ class Presliding(AbstractEffect):
     force (`F_pre` in N)."""
 
     name: ClassVar[str] = "presliding"
-    F_pre: Array = eqx.field(converter=as_param, default=1.0)
-    k_pre: Array = eqx.field(converter=as_param, default=1e6)
+    F_pre: Array = param("N", constraint="positive", default=1.0)
+    k_pre: Array = param("N/m", constraint="positive", default=1e6)
 
     def init_state(self, x0):
         return jnp.zeros_like(x0)
@@ -268,8 +269,8 @@ class FrictionLag(AbstractEffect):
     viscous term too would act like a (negative) mass and trade off against `inertia`."""
 
     name: ClassVar[str] = "friction_lag"
-    lag_gain: Array = eqx.field(converter=as_param, default=0.0)
-    tau: Array = eqx.field(converter=as_param, default=0.1)
+    lag_gain: Array = param("-", constraint=("interval", 0.0, 1.0), default=0.0)
+    tau: Array = param("s", constraint="positive", default=0.1)
 
     def init_state(self, x0):
         return (jnp.zeros_like(x0), jnp.zeros((), bool))

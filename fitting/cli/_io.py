@@ -11,20 +11,15 @@ import numpy as np
 
 from jaxfric import data as _data
 
+from .._params import natural_units
+
 
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
                "lugre": "lugre", "tustin": "tustin"}
 
-#: SI unit of each parameter name (GMS element names nu_i, k_i by prefix).
-PARAM_UNITS = {
-    "Fs": "N", "Fc": "N", "Vs": "m/s", "delta": "-", "sigma2": "N s/m", "a": "N",
-    "b": "m^-alpha", "c": "N/m^4", "alpha": "-", "beta": "m", "l1": "m/N", "C": "N/s",
-    "sigma0": "N/m", "sigma1": "N s/m", "nu": "-", "k": "N/m",
-}
-
-
-def param_unit(name: str) -> str:
-    return PARAM_UNITS.get(name, PARAM_UNITS.get(name.split("_")[0], "?"))
+def param_units(res) -> dict[str, str]:
+    """``{name: SI unit}`` of a fit result's parameters, as declared on the model's fields."""
+    return natural_units(res.model)
 
 
 def parse_units(specs) -> dict[str, str]:
@@ -64,13 +59,14 @@ def write_json_atomic(path: str, obj) -> None:
 
 
 def result_json(kind: str, res, m) -> dict:
+    units = param_units(res)
     return {
         "model": kind,
         "file": str(m.source),
         "samples": len(m),
         "params": {k: float(v) for k, v in res.params.items()},
         "stderr": {k: float(v) for k, v in res.stderr.items()},
-        "units": {k: param_unit(k) for k in res.params},
+        "units": {k: units.get(k, "?") for k in res.params},
         "rmse": float(res.rmse),
         "nrmse": float(res.nrmse),
         "r2": float(res.r2),
@@ -82,10 +78,11 @@ def result_json(kind: str, res, m) -> dict:
 
 def param_table(res) -> str:
     lines = [f"{'parameter':>10}  {'value':>14}  {'std. error':>10}  {'rel.':>8}  unit"]
+    units = param_units(res)
     for name in res.names:
         v, s = float(res.params[name]), float(res.stderr[name])
         rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
-        lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {param_unit(name)}")
+        lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {units.get(name, '?')}")
     return "\n".join(lines)
 
 

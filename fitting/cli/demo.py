@@ -23,6 +23,7 @@ import numpy as np
 import jaxfric
 from jaxfric import effects as fx
 from jaxfric.examples import diagnosis_motion, diagnosis_truth
+from jaxfric.motion import velocity
 
 
 NOISE_N = 0.05
@@ -57,7 +58,7 @@ def run(out: Path, log=print) -> dict:
     d = diagnose(start, t, x, F, model_name="two-state", log=log)
     log("")
     log(d.summary())
-    m = SimpleNamespace(t=t, x=x, F=F, velocity=lambda: np.r_[0.0, np.diff(x) / np.diff(t)])
+    m = SimpleNamespace(t=t, x=x, F=F, velocity=lambda: velocity(t, x))
     page = write_report(
         out, m, d, title="jaxfric demo: find the missing effect",
         intro=(f"Built-in example data ({t.size} samples): the friction of a simulated stage "

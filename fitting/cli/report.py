@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._io import param_unit, write_json_atomic
+from ._io import param_units, write_json_atomic
 from .plots import plot_diagnosis
 
 
@@ -20,11 +20,11 @@ def _table(header, rows) -> str:
 
 
 def _params_table(res) -> str:
-    rows = []
+    rows, units = [], param_units(res)
     for name in res.names:
         v, s = float(res.params[name]), float(res.stderr[name])
         rel = f"{100 * s / abs(v):.2g} %" if v != 0 and np.isfinite(s) else "-"
-        rows.append([name, f"{v:.6g}", f"{s:.3g}", rel, param_unit(name)])
+        rows.append([name, f"{v:.6g}", f"{s:.3g}", rel, units.get(name, "?")])
     return _table(["parameter", "value", "std. error", "relative", "unit (SI)"], rows)
 
 

@@ -6,7 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._numerics import as_param, safe_div
+from .._fields import param
+from .._numerics import safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
 from ..motion import Motion
@@ -35,10 +36,10 @@ class GMS(AbstractFrictionModel):
     """
 
     stribeck: Stribeck
-    sigma2: Array = eqx.field(converter=as_param)
-    C: Array = eqx.field(converter=as_param)
-    nu: Array = eqx.field(converter=as_param)
-    k: Array = eqx.field(converter=as_param)
+    sigma2: Array = param("N s/m", constraint="positive")
+    C: Array = param("N/s", constraint="positive", role="lag")
+    nu: Array = param("-", constraint="simplex", role="presliding")
+    k: Array = param("N/m", constraint="positive", role="presliding")
 
     def __check_init__(self):
         if self.nu.ndim != 1 or self.nu.shape != self.k.shape:

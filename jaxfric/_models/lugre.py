@@ -4,7 +4,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from .._numerics import as_param, linear_recurrence
+from .._fields import param
+from .._numerics import linear_recurrence
 from .._stribeck import Stribeck
 from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
@@ -26,9 +27,9 @@ class LuGre(AbstractFrictionModel):
     """
 
     stribeck: Stribeck
-    sigma0: Array = eqx.field(converter=as_param)
-    sigma1: Array = eqx.field(converter=as_param)
-    sigma2: Array = eqx.field(converter=as_param)
+    sigma0: Array = param("N/m", constraint="positive", role="presliding")
+    sigma1: Array = param("N s/m", constraint="positive", role="presliding")
+    sigma2: Array = param("N s/m", constraint="positive")
 
     def _coefficients(self, v, dt):
         g = self.stribeck.magnitude(v)

@@ -1,10 +1,9 @@
 """Tustin's static model: the Stribeck curve plus viscous friction."""
 
-import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-from .._numerics import as_param
+from .._fields import param
 from .._stribeck import Stribeck
 from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
@@ -17,7 +16,7 @@ class Tustin(AbstractFrictionModel):
     """
 
     stribeck: Stribeck
-    sigma2: Array = eqx.field(converter=as_param)
+    sigma2: Array = param("N s/m", constraint="positive")
 
     def _force(self, v):
         return self.stribeck(v) + self.sigma2 * v

@@ -24,7 +24,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from .._numerics import as_param, linear_recurrence, running_max, running_sum, safe_div
+from .._fields import param
+from .._numerics import linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
 from ..motion import Motion
@@ -116,8 +117,8 @@ class TwoState(AbstractFrictionModel):
 
     stribeck: Stribeck
     shape: AbstractShape
-    sigma2: Array = eqx.field(converter=as_param)
-    C: Array = eqx.field(converter=as_param)
+    sigma2: Array = param("N s/m", constraint="positive")
+    C: Array = param("N/s", constraint="positive", role="lag")
     stack_size: int = eqx.field(static=True, default=16)
     uses_reversal_bound: ClassVar[bool] = True
 
