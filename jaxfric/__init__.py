@@ -20,6 +20,12 @@ from ._models.gms import GMS as GMS, GMSState as GMSState
 from ._models.lugre import LuGre as LuGre, LuGreState as LuGreState
 from ._models.tustin import Tustin as Tustin
 from ._models.two_state import TwoState as TwoState, TwoStateState as TwoStateState
+from ._serialize import (
+    load_model as load_model,
+    model_from_dict as model_from_dict,
+    model_to_dict as model_to_dict,
+    save_model as save_model,
+)
 from ._shapes import (
     AbstractShape as AbstractShape,
     PaperShape as PaperShape,
