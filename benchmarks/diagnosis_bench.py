@@ -1,0 +1,251 @@
+"""Diagnosis bench: does `jaxfric diagnose` name the missing effect on data it did not make?
+
+    python benchmarks/diagnosis_bench.py [--quick] [--jobs 2] [--json OUT.json]
+
+Every file is made the way a measurement would be, from truths that are NOT the model being
+fitted (a two-state model with the paper's presliding shape):
+
+- **truths**: a 60-element GMS whose virgin curve is another family (a power law,
+  ``1 - (1 - u)**2.5``) with its own Stribeck curve (``gms_power``); a LuGre model with
+  stiff bristles (``lugre``); a two-state model with a `PowerShape` presliding curve
+  (``two_state_power``);
+- **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
+  and the hidden effects are computed there, from the fine grid's own central-difference
+  velocity and acceleration, with formulas written here (not `jaxfric.effects`);
+- **sensors**: the position is sampled and quantised to a 0.05 um encoder; the force gets
+  white noise (two levels); two sampling intervals; the file holds t, x, F only, so the
+  diagnosis derives the velocity itself;
+- **hidden effects**: one at a time (regime-confined ones included: a drag that matters
+  only at high speed, an asymmetry in one direction only, an acceleration (mass) term,
+  a two-harmonic position ripple, a warm-up drift, an offset, a friction level that
+  changes along the travel, a Stribeck hump, a friction lag), pairs, and clean files.
+
+For each file the bench records which effect the diagnosis added first and all it added,
+and the RMSE before and after. The summary prints a confusion table (hidden -> named
+first), the share of single-effect files whose effect was named first, of pairs with both
+found, the number of effects added on clean files, and the share of the excess error over
+the clean file removed when the effect was found (targets: >= 90 %, >= 80 %, 0, >= 50 %).
+JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or --json).
+The full bench (3 truths x 2 noise levels x 2 rates x 13 files) takes hours on two cores;
+``--quick`` runs one truth, one noise level and one rate (13 files).
+"""
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+
+HERE = Path(__file__).resolve().parent
+FINE = 10  # the truth runs on a grid this many times finer than the sampling
+ENCODER = 0.05e-6  # m per count
+SINGLES = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
+           "position_dependence", "stribeck", "friction_lag")
+PAIRS = (("asymmetry", "position_dependence"), ("inertia", "cogging"),
+         ("quadratic_drag", "drift"))
+TRUTHS = ("gms_power", "lugre", "two_state_power")
+NOISES = (0.03, 0.08)  # N
+RATES = (1e-2, 5e-3)  # s
+
+
+def _truth(name: str):
+    import jaxfric
+
+    if name == "gms_power":
+        stribeck = jaxfric.Stribeck(Fs=30.0, Fc=22.0, Vs=4e-3, delta=2.0)
+        shape = jaxfric.PowerShape(l1=4e-6, n=2.5)
+        return jaxfric.GMS.from_shape(shape, stribeck, sigma2=80.0, C=15.0, n=60)
+    if name == "lugre":
+        stribeck = jaxfric.Stribeck(Fs=26.0, Fc=20.0, Vs=3e-3, delta=1.2)
+        return jaxfric.LuGre(stribeck=stribeck, sigma0=2e6, sigma1=2.0 * 2e6**0.5, sigma2=60.0)
+    if name == "two_state_power":
+        from jaxfric.examples import diagnosis_truth
+
+        return diagnosis_truth()
+    raise ValueError(name)
+
+
+def _central(t, y):
+    return np.gradient(y, t)
+
+
+def _hidden(name: str, t, x, v, a, base, level):
+    """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
+    level (N) of the truth, `base` its force."""
+    travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
+    if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
+        excess = np.maximum(np.abs(v) - 5e-3, 0.0)
+        return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
+    if name == "asymmetry":  # 6 % more friction moving toward +x only
+        return 0.06 * level * (v > 0)
+    if name == "inertia":  # a mass error: 2 N at the typical acceleration
+        typical = np.median(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()])
+        return 2.0 / typical * a
+    if name == "cogging":  # two harmonics of a 1.3 mm pitch
+        phase = 2 * np.pi * x / 1.3e-3
+        return 0.5 * np.sin(phase + 0.4) + 0.2 * np.sin(2 * phase + 1.1)
+    if name == "drift":  # warm-up: the friction level rises 6 % with a 40 s time constant
+        return 0.06 * base * (1 - np.exp(-(t - t[0]) / 40.0))
+    if name == "offset":
+        return np.full_like(t, 0.8)
+    if name == "position_dependence":  # level +-5 % at the ends of the travel, quadratic
+        u = (x - travel_mid) / travel_half
+        return base * (0.04 * u + 0.03 * (u**2 - 1 / 3))
+    if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
+        return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
+    if name == "friction_lag":  # 35 % of the level follows speed changes with tau = 0.6 s
+        target = 0.35 * np.abs(base)
+        y = np.empty_like(target)
+        y[0] = target[0]
+        alpha = 1 - np.exp(-np.diff(t) / 0.6)
+        for i in range(1, t.size):
+            y[i] = y[i - 1] + alpha[i - 1] * (target[i] - y[i - 1])
+        return np.sign(v) * (y - target)
+    raise ValueError(name)
+
+
+def make_file(truth: str, hidden: tuple[str, ...], noise: float, dt: float, seed: int):
+    """``(t, x, F)`` as a sensor would record them: see the module docstring."""
+    import jaxfric
+    from jaxfric.examples import diagnosis_motion
+
+    t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
+    model = _truth(truth)
+    v = _central(t_fine, x_fine)
+    a = _central(t_fine, v)
+    base = np.asarray(jaxfric.simulate(model, t_fine, x_fine, v))
+    level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
+    force = base + sum((_hidden(h, t_fine, x_fine, v, a, base, level) for h in hidden),
+                       np.zeros_like(base))
+    keep = slice(0, None, FINE)
+    rng = np.random.default_rng(1000 + seed)
+    t = t_fine[keep]
+    x = np.round(x_fine[keep] / ENCODER) * ENCODER
+    F = force[keep] + noise * rng.standard_normal(t.size)
+    return t, x, F
+
+
+def run_case(case: dict) -> dict:
+    import fitting
+
+    t0 = time.perf_counter()
+    t, x, F = make_file(case["truth"], tuple(case["hidden"]), case["noise"], case["dt"],
+                        case["seed"])
+    start = fitting.initial_model("two-state", t, x, F)
+    d = fitting.diagnose(start, t, x, F, model_name="two-state")
+    ranked = [c.name for c in sorted(d.candidates, key=lambda c: -c.score)]
+    return {**case, "samples": int(t.size), "added": list(d.final.added),
+            "first": d.final.added[0] if d.final.added else None,
+            "top_score": ranked[0] if ranked else None,
+            "rmse_before": d.baseline.rmse, "rmse_after": d.final.rmse,
+            "rmse_holdout_before": d.baseline.rmse_holdout,
+            "rmse_holdout_after": d.final.rmse_holdout,
+            "seconds": time.perf_counter() - t0}
+
+
+def cases(quick: bool) -> list[dict]:
+    truths, noises, rates = (TRUTHS[:1], NOISES[:1], RATES[:1]) if quick else (
+        TRUTHS, NOISES, RATES)
+    hidden = [()] + [(h,) for h in SINGLES] + list(PAIRS)
+    out = []
+    for truth in truths:
+        for noise in noises:
+            for dt in rates:
+                for k, h in enumerate(hidden):
+                    out.append({"truth": truth, "noise": noise, "dt": dt, "hidden": list(h),
+                                "seed": k})
+    return out
+
+
+def summarise(rows: list[dict]) -> dict:
+    clean = {(r["truth"], r["noise"], r["dt"]): r for r in rows if not r["hidden"]}
+    singles = [r for r in rows if len(r["hidden"]) == 1]
+    pairs = [r for r in rows if len(r["hidden"]) == 2]
+    right = [r for r in singles if r["first"] == r["hidden"][0]]
+    both = [r for r in pairs if set(r["hidden"]) <= set(r["added"])]
+    removed = []
+    for r in right + both:
+        c = clean.get((r["truth"], r["noise"], r["dt"]))
+        if c is None:
+            continue
+        excess = r["rmse_holdout_before"] - c["rmse_holdout_after"]
+        if excess > 0:
+            removed.append((r["rmse_holdout_before"] - r["rmse_holdout_after"]) / excess)
+    return {
+        "single_right_first": len(right) / max(len(singles), 1),
+        "singles": len(singles),
+        "pairs_both_found": len(both) / max(len(pairs), 1),
+        "pairs": len(pairs),
+        "clean_files": len(clean),
+        "effects_added_on_clean": sum(len(r["added"]) for r in clean.values()),
+        "median_excess_removed_when_found": float(np.median(removed)) if removed else None,
+        "found_with_half_excess_removed": (float(np.mean(np.asarray(removed) >= 0.5))
+                                           if removed else None),
+    }
+
+
+def print_table(rows: list[dict], summary: dict) -> None:
+    print(f"\n{'truth':<16} {'noise':>5} {'dt':>6}  {'hidden':<34} {'added (in order)':<40} "
+          f"{'RMSE before -> after (held out), N':>34}")
+    for r in rows:
+        hidden = " + ".join(r["hidden"]) or "(clean)"
+        added = " + ".join(r["added"]) or "-"
+        ok = ("ok" if (r["hidden"] and r["first"] in r["hidden"]) or
+              (not r["hidden"] and not r["added"]) else "MISS")
+        print(f"{r['truth']:<16} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  {hidden:<34} "
+              f"{added:<40} {r['rmse_holdout_before']:>10.4f} -> {r['rmse_holdout_after']:.4f}"
+              f"  {ok}")
+    names = sorted({h for r in rows for h in r["hidden"]})
+    print("\nconfusion (single hidden effect -> first named), counts:")
+    named = sorted({r["first"] or "-" for r in rows if len(r["hidden"]) == 1})
+    print(f"{'hidden':<22}" + "".join(f"{n[:10]:>11}" for n in named))
+    for h in names:
+        sel = [r for r in rows if r["hidden"] == [h]]
+        if sel:
+            print(f"{h:<22}" + "".join(
+                f"{sum((r['first'] or '-') == n for r in sel):>11}" for n in named))
+    print("\nsummary:")
+    for k, v in summary.items():
+        print(f"  {k:<36} {v if not isinstance(v, float) else round(v, 3)}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
+    ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    ap.add_argument("--json", default=str(HERE / "diagnosis_bench.json"),
+                    help="output JSON (default: %(default)s)")
+    ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
+    args = ap.parse_args(argv)
+    todo = cases(args.quick)
+    if args.only:
+        keep = set(args.only.split(","))
+        todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
+    print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
+          flush=True)
+    rows, t0 = [], time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        for k, row in enumerate(pool.map(run_case, todo), start=1):
+            rows.append(row)
+            print(f"[{k}/{len(todo)} {time.perf_counter() - t0:6.0f} s] {row['truth']} "
+                  f"{' + '.join(row['hidden']) or '(clean)'}: added "
+                  f"{' + '.join(row['added']) or 'nothing'}", flush=True)
+    summary = summarise(rows)
+    print_table(rows, summary)
+    out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                       "python": sys.version.split()[0]},
+           "quick": args.quick, "seconds": time.perf_counter() - t0, "summary": summary,
+           "files": rows}
+    Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
+    print(f"\nwrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
