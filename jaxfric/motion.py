@@ -8,9 +8,9 @@ per-sample arrays the models need (`Motion`). Everything here is vectorised over
 the models' sequential parts get these arrays. See docs/algorithm.md section 1 for the
 rules (one direction signal, backward difference).
 
-The functions on NumPy arrays (`velocity`, `reversals`, `travel_since_reversal`) are for
-data analysis outside compiled code; `backward_velocity`, `make_motion` and `Motion` are
-JAX and run under ``jit``/``vmap``/``grad``.
+The functions on NumPy arrays (`velocity`, `smooth_derivatives`, `reversals`,
+`travel_since_reversal`) are for data analysis outside compiled code; `backward_velocity`,
+`make_motion` and `Motion` are JAX and run under ``jit``/``vmap``/``grad``.
 """
 
 import equinox as eqx
@@ -80,6 +80,35 @@ def velocity(t, x, window_s: float | None = None) -> np.ndarray:
     i = np.arange(n)
     lo, hi = np.clip(i - h, 0, n - 1), np.clip(i + h, 0, n - 1)
     return (x[hi] - x[lo]) / (t[hi] - t[lo])
+
+
+def smooth_derivatives(t, x, window_s: float, polyorder: int = 3
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-phase velocity (m/s) and acceleration (m/s^2) of concrete arrays: a
+    Savitzky-Golay filter (`scipy.signal.savgol_filter`) of order `polyorder` over a window
+    of `window_s` seconds (an odd number of samples, at least ``polyorder + 2``), the way
+    identification wants them: no lag, quantisation smoothed. For identification only: it
+    uses future samples, so a controller's per-sample step cannot compute it (that one uses
+    the backward difference).
+
+    Needs uniform sampling (within 1 % of the median interval); otherwise raises
+    `ValueError` (use `velocity` with a window instead)."""
+    from scipy.signal import savgol_filter
+
+    t, x = np.asarray(t, dtype=np.float64), np.asarray(x, dtype=np.float64)
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    if np.max(np.abs(dt - h)) > 0.01 * h:
+        raise ValueError("smooth_derivatives needs uniform sampling (intervals within 1 % "
+                         "of their median)")
+    n = max(polyorder + 2, round(window_s / h))
+    n += 1 - n % 2  # odd
+    n = min(n, x.size - (1 - x.size % 2))
+    if n <= polyorder:
+        raise ValueError(f"too few samples ({x.size}) for a window of order {polyorder}")
+    v = savgol_filter(x, n, polyorder, deriv=1, delta=h, mode="interp")
+    a = savgol_filter(x, n, polyorder, deriv=2, delta=h, mode="interp")
+    return v, a
 
 
 def reversals(d) -> tuple[np.ndarray, np.ndarray]:
