@@ -142,6 +142,37 @@ def model_from_params(kind: str, params: dict):
     return _params.from_natural_vector(jax.numpy.asarray(vector), template)
 
 
+def model_from_json(path, kind: str):
+    """``(model, description)`` from a JSON file: a saved model (`jaxfric.save_model`),
+    a fit or diagnosis result with a ``"fitted_model"`` entry (the model exactly as
+    fitted, effects included), or an older fit result with only ``"params"`` (paper names,
+    rebuilt on a model of its ``"model"`` kind, or of `kind`)."""
+    import jaxfric
+
+    path = Path(path)
+    if not path.is_file():
+        raise _data.DataError(f"{path}: no such file")
+    try:
+        spec = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise _data.DataError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
+    if not isinstance(spec, dict):
+        raise _data.DataError(f"{path}: expected a JSON object (a fit, a diagnosis or a saved "
+                              f"model), got a {type(spec).__name__}")
+    if isinstance(spec.get("fitted_model"), dict) or "class" in spec or isinstance(
+            spec.get("model"), dict):
+        try:
+            model = jaxfric.load_model(spec)
+        except (ValueError, TypeError) as e:
+            raise _data.DataError(f"{path}: {e}") from None
+        return model, f"{type(model).__name__} as saved in {path}"
+    if "params" not in spec:
+        raise _data.DataError(f"{path}: holds no model: expected 'fitted_model' (from "
+                              "'jaxfric fit --json' or 'jaxfric diagnose --json') or 'params'")
+    kind = MODEL_NAMES.get(spec.get("model", kind), kind)
+    return model_from_params(kind, spec["params"]), f"{kind} with the parameters of {path}"
+
+
 def run_simulate(args) -> int:
     import jaxfric
     from jaxfric import paper
@@ -156,16 +187,8 @@ def run_simulate(args) -> int:
             print(f"warning: {w.message}", file=sys.stderr)
     kind = MODEL_NAMES[args.model]
     if args.params:
-        path = Path(args.params)
-        if not path.exists():
-            raise _data.DataError(f"{path}: no such file")
-        try:
-            spec = json.loads(path.read_text())
-        except json.JSONDecodeError as e:
-            raise _data.DataError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
-        kind = MODEL_NAMES.get(spec.get("model", kind), kind)
-        model = model_from_params(kind, spec.get("params", spec))
-        log(f"model: {kind} with the parameters of {path}")
+        model, what = model_from_json(args.params, kind)
+        log(f"model: {what}")
     else:
         model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
                  "tustin": paper.tustin}[kind]()
