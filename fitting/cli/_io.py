@@ -1,11 +1,8 @@
 """What the commands share: model names, parameter units, reading a file with the command
-line's unit and sign options, result tables and JSON written atomically."""
+line's unit and sign options, result tables and JSON."""
 
-import json
-import os
 import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -48,14 +45,6 @@ def load_for_cli(args, log):
     for note in m.notes:
         log(f"note: {note}")
     return m
-
-
-def write_json_atomic(path: str, obj) -> None:
-    """Write JSON via a temporary file and a rename: never a half-written file."""
-    target = Path(path)
-    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(obj, indent=2) + "\n")
-    tmp.replace(target)
 
 
 def result_json(kind: str, res, m) -> dict:

@@ -2,7 +2,6 @@
 parsed arguments, prints what it does, writes its outputs and returns the exit code."""
 
 import json
-import os
 import sys
 import time
 import warnings
@@ -22,8 +21,8 @@ from ._io import (
     param_table,
     parse_units,
     result_json,
-    write_json_atomic,
 )
+from ._output import atomic_file, write_json
 from .plots import plot_fit
 
 
@@ -74,7 +73,7 @@ def run_fit(args) -> int:
         print(f"warning: the fit did not converge ({res.status}); the values are the last "
               "iterate", file=sys.stderr)
     if args.json:
-        write_json_atomic(args.json, result_json(kind, res, m))
+        write_json(args.json, result_json(kind, res, m))
         log(f"JSON written to {args.json}")
     if args.plot:
         plot_fit(args.plot, m, res, kind)
@@ -119,7 +118,7 @@ def run_diagnose(args) -> int:
         )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
     if args.json:
-        write_json_atomic(args.json, d.to_json())
+        write_json(args.json, d.to_json())
         log(f"JSON written to {args.json}")
     return 0
 
@@ -201,11 +200,10 @@ def run_simulate(args) -> int:
         err = force - m.force
         log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} N")
     target = Path(args.out)
-    tmp = target.with_name(f".{target.name}.tmp{os.getpid()}")
     header = ",".join(f"{k}[{u}]" for k, u in zip(cols, ["s", "m", "m/s", "N", "N"]))
-    np.savetxt(tmp, np.column_stack(list(cols.values())), delimiter=",", header=header,
-               comments="", fmt="%.10g")
-    tmp.replace(target)
+    with atomic_file(target) as f:
+        np.savetxt(f, np.column_stack(list(cols.values())), delimiter=",", header=header,
+                   comments="", fmt="%.10g")
     log(f"{len(m)} samples written to {target} (columns {header})")
     if int(out.overflow) > 0:
         print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
@@ -240,6 +238,6 @@ def run_compare(args) -> int:
         log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"
                                     for n in names))
     if args.json:
-        write_json_atomic(args.json, {"file": str(m.source), "models": results})
+        write_json(args.json, {"file": str(m.source), "models": results})
         log(f"JSON written to {args.json}")
     return 0

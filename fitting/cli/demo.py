@@ -13,7 +13,6 @@
    plus ``diagnosis.json``, ``summary.json`` and the measurement as ``example.csv``.
 """
 
-import json
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -24,6 +23,8 @@ import jaxfric
 from jaxfric import effects as fx
 from jaxfric.examples import diagnosis_motion, diagnosis_truth
 from jaxfric.motion import velocity
+
+from ._output import atomic_file, write_json
 
 
 NOISE_N = 0.05
@@ -47,8 +48,9 @@ def run(out: Path, log=print) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     t, x, F, _ = example_measurement()
-    np.savetxt(out / "example.csv", np.column_stack([t, x, F]), delimiter=",",
-               header="t[s],x[m],F[N]", comments="", fmt="%.10g")
+    with atomic_file(out / "example.csv") as f:
+        np.savetxt(f, np.column_stack([t, x, F]), delimiter=",", header="t[s],x[m],F[N]",
+                   comments="", fmt="%.10g")
     log(f"example measurement: {t.size} samples over {t[-1]:.0f} s, travel "
         f"{np.ptp(x) * 1e3:.1f} mm, noise {NOISE_N} N, one hidden effect "
         f"(written to {out / 'example.csv'})")
@@ -78,7 +80,7 @@ def run(out: Path, log=print) -> dict:
         "report": str(page),
         "diagnosis": d.to_json(),
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_json(out / "summary.json", summary)
     verdict = "found" if found and found[0] == HIDDEN else "NOT found"
     log(f"\nhidden effect ({HIDDEN}) {verdict}; RMSE {d.baseline.rmse:.3f} N -> "
         f"{d.final.rmse:.3f} N (noise {NOISE_N} N)")

@@ -1,7 +1,7 @@
 """The ``jaxfric`` command line."""
 
 import argparse
-import json
+import signal
 import sys
 import time
 from pathlib import Path
@@ -30,7 +30,9 @@ def _demo(args) -> int:
     summary = demo.run(out, log=(lambda *a: None) if args.quiet else print)
     elapsed = time.perf_counter() - t0
     if args.json:
-        Path(args.json).write_text(json.dumps(summary, indent=2))
+        from ._output import write_json
+
+        write_json(args.json, summary)
     if not args.quiet:
         print(f"\nreport: {(out / 'report.html').resolve()} ({elapsed:.1f} s)")
     return 0
@@ -209,12 +211,44 @@ def main(argv=None) -> int:
     from jaxfric.data import DataError
 
     enable_compilation_cache()
-
+    signal.signal(signal.SIGTERM, _terminate)
     try:
+        _check_outputs(args)
         return args.func(args)
     except DataError as e:
         print(f"jaxfric {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except _Terminated:
+        print(f"jaxfric {args.command}: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print(f"jaxfric {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+#: The outputs of each command: (option, attribute, file or folder), checked before work.
+_OUTPUTS = {
+    "demo": (("--out", "out", "folder"), ("--json", "json", "file")),
+    "fit": (("--json", "json", "file"), ("--plot", "plot", "file")),
+    "simulate": (("--out", "out", "file"),),
+    "compare": (("--json", "json", "file"),),
+    "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
+}
+
+
+def _check_outputs(args) -> None:
+    """Every output path can be written, before any work (`fitting.cli._output`)."""
+    from ._output import check_file, check_folder
+
+    for option, attr, kind in _OUTPUTS[args.command]:
+        path = getattr(args, attr, None)
+        if path:
+            (check_file if kind == "file" else check_folder)(path, option)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that unfinished outputs are cleaned up."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated

@@ -1,10 +1,11 @@
 """Figures of the commands (matplotlib, Agg backend): measured against fitted force, and the
 diagnosis figures of ``jaxfric diagnose --report`` and ``jaxfric demo``."""
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from ._output import save_figure
 
 
 def plot_fit(path: str, m, res, kind: str) -> None:
@@ -24,10 +25,8 @@ def plot_fit(path: str, m, res, kind: str) -> None:
     ax[1].set(xlabel="x [mm]", ylabel="F [N]", title="force vs position")
     fig.suptitle(f"{Path(str(m.source)).name}: {kind} fit, RMSE {float(res.rmse):.3g} N")
     fig.tight_layout()
-    tmp = Path(path).with_name(f".{Path(path).name}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
-    tmp.replace(path)
 
 
 def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
@@ -48,11 +47,9 @@ def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
     files = []
 
     def save(fig, name):
-        tmp = out_dir / f".{name}.tmp{os.getpid()}.png"
         fig.tight_layout()
-        fig.savefig(tmp, dpi=100)
+        save_figure(fig, out_dir / name, dpi=100)
         plt.close(fig)
-        tmp.replace(out_dir / name)
         files.append(name)
 
     fig, ax = plt.subplots(2, 1, figsize=(11, 6), sharex=True)

@@ -2,12 +2,12 @@
 ``jaxfric demo``)."""
 
 import html
-import os
 from pathlib import Path
 
 import numpy as np
 
-from ._io import param_units, write_json_atomic
+from ._io import param_units
+from ._output import atomic_file, write_json
 from .plots import plot_diagnosis
 
 
@@ -43,7 +43,7 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
     `m` has ``t, x, F`` and ``velocity()``; `d` is a `fitting.Diagnosis`. Returns the page."""
     out = Path(out_dir)
     files = plot_diagnosis(out, m, d)
-    write_json_atomic(str(out / "diagnosis.json"), d.to_json())
+    write_json(out / "diagnosis.json", d.to_json())
     cands = [[c.name, f"{c.score:.3f}", f"{c.t_stat:.1f}", "yes" if c.significant else "no",
               c.evidence] for c in d.candidates]
     steps = [["baseline", f"{d.baseline.rmse:.4g}", f"{d.baseline.rmse_holdout:.4g}",
@@ -78,7 +78,6 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
             "padding:3px 8px;text-align:right} td:first-child{text-align:left}</style></head>"
             "<body>" + "\n".join(parts) + "</body></html>\n")
     target = out / "report.html"
-    tmp = out / f".report.html.tmp{os.getpid()}"
-    tmp.write_text(page)
-    tmp.replace(target)
+    with atomic_file(target) as f:
+        f.write(page)
     return target

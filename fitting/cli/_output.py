@@ -1,0 +1,100 @@
+"""Writing results safely: outputs checked before the work starts, files written whole or
+not at all.
+
+`check_file` and `check_folder` run before a command does any fitting, so a wrong path
+fails in a second with one line instead of after a minute of work. `atomic_file` writes
+through a private temporary file in the target's folder (created with O_EXCL by
+`tempfile.mkstemp`, so it never follows a planted symlink or overwrites someone else's
+file), flushes and fsyncs it, and renames it over the target; on any exit before that,
+Ctrl-C and SIGTERM included (see `fitting.cli.main`), the temporary file is removed and
+the target is untouched. The finished file gets the usual permissions (0666 less the
+umask), as a plain ``open`` would give it.
+"""
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+from jaxfric.data import DataError
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def check_file(path, option: str) -> Path:
+    """`path` can be written as a file: not a folder, in a folder that exists and that we
+    may write in. Raises `DataError` naming the `option` (e.g. ``"--json"``)."""
+    target = Path(path)
+    if target.is_dir():
+        raise DataError(f"{option} {target}: is a folder; give a file name")
+    folder = target.parent
+    if not folder.is_dir():
+        raise DataError(f"{option} {target}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise DataError(f"{option} {target}: cannot write in {folder} (permission denied)")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise DataError(f"{option} {target}: the file exists and is not writable")
+    return target
+
+
+def check_folder(path, option: str) -> Path:
+    """`path` is a folder we can write in, or can be made in a writable parent folder
+    (it is not made here). Raises `DataError` naming the `option`."""
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise DataError(f"{option} {folder}: is a file, not a folder")
+    existing = folder
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise DataError(f"{option} {folder}: cannot write in {existing} (permission denied)")
+    return folder
+
+
+@contextlib.contextmanager
+def atomic_file(path, mode: str = "w"):
+    """``with atomic_file(path) as f: f.write(...)``: `path` holds the whole new content
+    afterwards, or is unchanged if anything fails or is interrupted before the end."""
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, mode) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def _finite_or_null(obj):
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite_or_null(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite_or_null(v) for v in obj]
+    return obj
+
+
+def write_json(path, obj) -> None:
+    """`obj` as RFC 8259 JSON, atomically. JSON has no NaN or Infinity: a value that is
+    not finite (an undefined error, a parameter at its limit) is written as null."""
+    text = json.dumps(_finite_or_null(obj), indent=2, allow_nan=False) + "\n"
+    with atomic_file(path) as f:
+        f.write(text)
+
+
+def save_figure(fig, path, dpi: int) -> None:
+    """A matplotlib figure as PNG, atomically."""
+    with atomic_file(path, "wb") as f:
+        fig.savefig(f, dpi=dpi, format="png")
