@@ -40,8 +40,6 @@ properties pytree beside the model, never inside it.
 - Transforms: `Identity`, `Exp` (log scale, positive), `Softplus`, `Sigmoid` (bounded),
   `Simplex` (GMS weights). Each leaf is divided by a reference ``scale`` (default: its
   starting value), so values from 1e-9 to 1e15 in SI become coordinates of order one.
-- `to_vector(model, layout)`, `from_vector(y, template, layout)`, `make_layout(model, props)`:
-  the model <-> flat unconstrained vector map used by the solver.
 - `to_fit_representation(model)`: the model as the solver sees it (a `PaperShape` becomes a
   `NormalizedPaperShape`); custom `props` for `fit` are built on it.
 - `natural_params(model)`: ``{name: value}`` in SI with the paper's names.
@@ -79,37 +77,25 @@ Example::
 once per process: 5-7 s for the first two-state fit or batch on a 2-core CPU (see
 BENCHMARKS.md and `benchmarks/fit_compile.py`), seconds for Tustin/LuGre/GMS; further
 calls with the same shapes run in well under a second to a few seconds. Changing the free
-set, the starting values or the weights does not recompile (see `fitting._fit`); data
+set, the starting values or the weights does not recompile (see `fitting._problem`); data
 whose number of reversals falls in another power-of-two bucket (up to 64, 128, 256, ...)
 does, as the two-state simulation sizes its list of reversals by it.
 """
 
+from ._candidates import Candidate as Candidate
 from ._data import Dataset as Dataset
-from ._diagnose import (
-    Candidate as Candidate,
-    diagnose as diagnose,
-    Diagnosis as Diagnosis,
-    regime_errors as regime_errors,
-    regimes as regimes,
-)
-from ._fit import (
-    default_solver as default_solver,
-    fit as fit,
-    fit_batch as fit_batch,
-    fit_datasets as fit_datasets,
-    FitResult as FitResult,
-    status_name as status_name,
-)
+from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
+from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult
 from ._params import (
     default_props as default_props,
-    from_vector as from_vector,
-    make_layout as make_layout,
     natural_params as natural_params,
     to_fit_representation as to_fit_representation,
-    to_vector as to_vector,
 )
+from ._regimes import regime_errors as regime_errors, regimes as regimes
+from ._result import FitResult as FitResult
 from ._shape import NormalizedPaperShape as NormalizedPaperShape
+from ._solve import default_solver as default_solver
 from ._staged import (
     constant_velocity_segments as constant_velocity_segments,
     fit_staged as fit_staged,

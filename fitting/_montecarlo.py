@@ -15,8 +15,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
-from . import _fit, _params
+from . import _params
 from ._data import check_dataset, Dataset, stack
+from ._fit import fit_batch
+from ._problem import _Problem, _problem, _simulate_stack
+from ._result import FitResult
 
 
 class MonteCarloResult(eqx.Module):
@@ -37,16 +40,16 @@ class MonteCarloResult(eqx.Module):
     force_q05: Array
     force_q95: Array
     true_params: dict[str, Array]
-    fits: _fit.FitResult | None
+    fits: FitResult | None
     param_mean: dict[str, Array] | None
     param_std: dict[str, Array] | None
     converged_fraction: Array | None
 
 
 @eqx.filter_jit
-def _predict(problem: _fit._Problem, ys: Array, data: Dataset):
+def _predict(problem: _Problem, ys: Array, data: Dataset):
     def one(y):
-        force, _ = _fit._simulate_stack(problem.model(y), data, problem.max_reversals)
+        force, _ = _simulate_stack(problem.model(y), data, problem.max_reversals)
         return force[0], _params.natural_vector(problem.user_model(y))
 
     return jax.vmap(one)(ys)
@@ -58,7 +61,7 @@ def _draws(key, problem, y0, num, param_sigma):
     mask = layout.coordinate_mask()
     p = y0.shape[0]
     eps = jax.random.normal(key, (num, p), dtype=y0.dtype)
-    if isinstance(param_sigma, _fit.FitResult):
+    if isinstance(param_sigma, FitResult):
         # Correlated draws from the fit's covariance: map cov(p) of the fit
         # representation's parameters to y to first order, cov(y) = K cov(p) K^T.
         template = problem.template
@@ -98,7 +101,7 @@ def monte_carlo(
     *,
     key: PRNGKeyArray,
     num: int = 32,
-    param_sigma: float | dict[str, float] | _fit.FitResult = 0.0,
+    param_sigma: float | dict[str, float] | FitResult = 0.0,
     noise_sigma: float = 0.0,
     refit: bool = True,
     free: Iterable[str] | None = None,
@@ -134,7 +137,7 @@ def monte_carlo(
     if num < 1:
         raise ValueError(f"num must be >= 1, got {num}")
     data = check_dataset(Dataset(t=t, x=x, F=np.zeros(np.shape(t)), v=v))
-    problem, y0 = _fit._problem(model, props, free, reparameterize)
+    problem, y0 = _problem(model, props, free, reparameterize)
     key_p, key_n = jax.random.split(key)
     ys = _draws(key_p, problem, y0, num, param_sigma)
     stacked = stack([data])
@@ -148,7 +151,7 @@ def monte_carlo(
         def tile(a):
             return None if a is None else np.broadcast_to(a, (num, *a.shape))
 
-        fits = _fit.fit_batch(
+        fits = fit_batch(
             model, tile(data.t), tile(data.x), np.asarray(noisy), tile(data.v),
             free=free, props=props, solver=solver, max_steps=max_steps,
             reparameterize=reparameterize, devices=devices,

@@ -26,6 +26,8 @@ from jaxfric._fields import parameter_info
 
 from . import _fit, _params
 from ._data import check_dataset, Dataset, stack
+from ._problem import _problem_from_fit
+from ._result import FitResult
 
 
 @dataclasses.dataclass(frozen=True)
@@ -212,7 +214,7 @@ class StagedResult:
     """
 
     model: object
-    stages: dict[str, _fit.FitResult]
+    stages: dict[str, FitResult]
     segments: Segments
 
 
@@ -294,7 +296,7 @@ def fit_staged(
     def run(start, free, use):
         on = jnp.asarray([[1.0 if k in use else 0.0] for k in keys])
         stage_data = eqx.tree_at(lambda d: d.weights, data, data.weights * on)
-        problem, y0 = _fit._problem_from_fit(start, None, free, paper_shape)
+        problem, y0 = _problem_from_fit(start, None, free, paper_shape)
         return _fit._fit_stacked(problem, y0, [checked[k] for k in keys], stage_data,
                                  solver, max_steps)
 

@@ -117,18 +117,18 @@ def test_transform_round_trip(transform, value):
 def test_vector_map_and_scaling():
     model = _params.to_fit_representation(paper.two_state())
     props = fitting.default_props(model)
-    layout = fitting.make_layout(model, props)
-    y = fitting.to_vector(model, layout)
+    layout = _params.make_layout(model, props)
+    y = _params.to_vector(model, layout)
     # SI values from 4.3e-9 (l1, m/N) to 54 (sigma2): coordinates of order one.
     assert np.all(np.abs(np.asarray(y)) < 3.0)
-    back = fitting.from_vector(y, model, layout)
+    back = _params.from_vector(y, model, layout)
     for a, b in zip(jax.tree.leaves(back), jax.tree.leaves(model)):
         np.testing.assert_allclose(a, b, rtol=1e-12)
     # A held leaf keeps its exact value even if its transform would renormalise it.
     gms = paper.gms5()  # weights sum to 0.997 as printed
     props = fitting.default_props(gms, free=["k"])
-    layout = fitting.make_layout(gms, props)
-    back = fitting.from_vector(fitting.to_vector(gms, layout), gms, layout)
+    layout = _params.make_layout(gms, props)
+    back = _params.from_vector(_params.to_vector(gms, layout), gms, layout)
     np.testing.assert_array_equal(back.nu, gms.nu)
 
 
@@ -368,16 +368,16 @@ def test_fit_memory_is_linear_in_samples():
     # A whole two-state fit compiled for 1e5 samples: XLA's memory plan must be of order
     # n*p (a few hundred MB), not n*n (80 GB), which an SVD of the (n, p) Jacobian without
     # vectors once asked for.
-    from fitting import _fit
+    from fitting import _problem, _solve
     from fitting._data import check_dataset, Dataset, stack
 
     n = 100_000
     t = np.arange(n) * 1e-3
     x = 1e-3 * np.sin(2 * np.pi * t / 5)
-    problem, y0 = _fit._problem(true_two_state(), None, None, True)
+    problem, y0 = _problem._problem(true_two_state(), None, None, True)
     data = stack([check_dataset(Dataset(t=t, x=x, F=np.zeros(n)))])
-    compiled = eqx.filter_jit(_fit._solve_impl).lower(
-        problem, y0, data, _fit.default_solver(), 1).compile()
+    compiled = eqx.filter_jit(_solve._solve_impl).lower(
+        problem, y0, data, _solve.default_solver(), 1).compile()
     assert compiled.compiled.memory_analysis().temp_size_in_bytes < 4e9
 
 
@@ -385,7 +385,7 @@ def test_remaining_step_memory_is_linear_in_samples():
     # The convergence check runs on the final Jacobian of every fit: a full SVD of a
     # (n, p) Jacobian would need n*n*8 bytes (80 GB at n = 1e5). Compile it for n = 1e5
     # and check that XLA plans memory of order n*p, not n*n.
-    from fitting._fit import _remaining_step
+    from fitting._solve import _remaining_step
 
     n, p = 100_000, 12
     args = (jax.ShapeDtypeStruct((n, p), jnp.float64), jax.ShapeDtypeStruct((n,), jnp.float64),

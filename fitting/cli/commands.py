@@ -212,7 +212,7 @@ def run_simulate(args) -> int:
 
 
 def run_compare(args) -> int:
-    from .._diagnose import regime_errors, regimes
+    from .._regimes import regime_errors, regimes
 
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     m = load_for_cli(args, log)

@@ -1,0 +1,127 @@
+"""The candidate effects a diagnosis screens: for each effect of `jaxfric.effects`, the
+instances to try (a grid over its nonlinear parameters), the regression columns of its
+linear parameters, their physical bounds, and the `Candidate` a screen returns.
+"""
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from jaxfric import effects as fx
+
+
+def _signals(t, x, v, base, static):
+    dt = np.r_[0.0, np.diff(t)]
+    a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
+    return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
+                      dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
+                      t0=jnp.asarray(t[0]), base=jnp.asarray(base),
+                      static=jnp.asarray(static))
+
+
+def _grid(name, t, x, v, F):
+    """Instances of effect `name` to screen: unit linear parameters, a grid over the
+    nonlinear ones (SI)."""
+    speed = np.abs(v[v != 0]) if np.any(v != 0) else np.ones(1)
+    level = float(np.median(np.abs(F))) or 1.0
+    dx = np.abs(np.diff(x))
+    dx = dx[dx > 0]
+    if name == "cogging":
+        lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
+        periods = np.geomspace(lo, np.ptp(x) / 2, 160)
+        return [fx.Cogging(cog_sin=1.0, cog_cos=1.0, period=p) for p in periods]
+    if name == "stribeck":
+        vs = np.geomspace(np.quantile(speed, 0.02), np.quantile(speed, 0.98), 24)
+        return [fx.StribeckHump(dF_str=1.0, v_str=s) for s in vs]
+    if name == "presliding":
+        dmax = np.ptp(x) / 2
+        travel = np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)  # 2*F_pre/k_pre
+        return [fx.Presliding(F_pre=level, k_pre=2 * level / d) for d in travel]
+    if name == "friction_lag":
+        span = t[-1] - t[0]
+        taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)
+        return [fx.FrictionLag(lag_gain=1.0, tau=tau) for tau in taus]
+    if name == "position_dependence":
+        return [fx.PositionDependence.for_travel(x, pos_1=1.0, pos_2=1.0)]
+    cls = fx.EFFECTS[name]
+    return [cls()]
+
+
+#: Parameters entering the term linearly (the regression's unknowns); effects not listed
+#: are scaled as a whole (one column: the term itself).
+_LINEAR = {
+    "viscous": ("c_visc",), "quadratic_drag": ("c_drag",), "stribeck": ("dF_str",),
+    "inertia": ("mass",), "offset": ("offset",), "asymmetry": ("asym",),
+    "cogging": ("cog_sin", "cog_cos"), "position_dependence": ("pos_1", "pos_2"),
+    "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
+}
+
+
+@eqx.filter_jit
+def _term(effect, s):
+    return effect.term(s)
+
+
+def _columns(effect, s):
+    """Effect term's derivative w.r.t. its linear parameters (n, q); for an effect with
+    none, the term itself (n, 1). Linear parameters are evaluated at 1."""
+    names = _LINEAR.get(effect.name)
+    if not names:
+        return np.asarray(_term(effect, s))[:, None]
+    cols = []
+    for name in names:
+        unit = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(1.0))
+        others = [n for n in names if n != name]
+        for other in others:
+            unit = eqx.tree_at(lambda e, o=other: getattr(e, o), unit, jnp.asarray(0.0))
+        cols.append(np.asarray(_term(unit, s)))
+    return np.stack(cols, axis=1)
+
+
+#: Physical ranges of linear parameters (the lag gain is a fraction of the force).
+_BOUNDS = {"friction_lag": (0.0, 1.0), "inertia": (0.0, np.inf)}  # a mass is not negative
+
+
+def _with_linear(effect, w):
+    names = _LINEAR.get(effect.name)
+    if not names:
+        if effect.name == "presliding":  # scale the element's force: F_pre * w
+            return eqx.tree_at(lambda e: e.F_pre, effect, jnp.abs(effect.F_pre * w[0]))
+        return effect
+    if effect.name in _BOUNDS:  # strictly inside a finite range (the fit's bounded transform)
+        lo, hi = _BOUNDS[effect.name]
+        if np.isfinite(hi - lo):
+            lo, hi = lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)
+        w = np.clip(w, lo, hi)
+    for name, value in zip(names, w):
+        effect = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(float(value)))
+    return effect
+
+
+def _code(effect) -> str:
+    """The one-liner that adds `effect` with its screened values."""
+    args = ", ".join(f"{f.name}={float(getattr(effect, f.name)):.4g}"
+                     for f in dataclasses.fields(effect))
+    return f"model + jaxfric.effects.{type(effect).__name__}({args})"
+
+
+@dataclasses.dataclass
+class Candidate:
+    """One screened effect: `effect` (a `jaxfric.effects` instance with the regression's
+    values), `score` (fraction of the held-out residual SSE removed), `t_stat` (of the
+    share of SSE removed per held-out block), `significant`, `evidence` (plain words),
+    `code` (how to add it)."""
+
+    name: str
+    effect: fx.AbstractEffect
+    score: float
+    t_stat: float
+    significant: bool
+    evidence: str
+    code: str
+
+    def to_json(self) -> dict:
+        return {"effect": self.name, "score": self.score, "t_stat": self.t_stat,
+                "significant": self.significant, "evidence": self.evidence, "code": self.code}

@@ -1,0 +1,160 @@
+"""The outcome of a fit: `FitResult` (values, standard errors, correlations, metrics,
+the result code), assembled from the arrays of the compiled solve.
+"""
+
+import warnings
+from typing import Any
+
+import equinox as eqx
+import jax
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array
+
+import jaxfric
+
+from . import _params
+from ._problem import _Problem
+from ._solve import _Core
+
+
+#: Result codes by name (`optimistix.RESULTS` includes lineax's).
+_RESULT_NAMES = ("successful", "nonlinear_max_steps_reached", "nonlinear_divergence",
+                 "nonfinite", "max_steps_reached", "singular", "breakdown", "stagnation",
+                 "conlim", "nonfinite_input")
+
+def status_name(result: optx.RESULTS) -> str | list[str]:
+    """The name of an optimistix result code (e.g. ``"successful"``,
+    ``"nonlinear_max_steps_reached"``); a list for a batch of codes."""
+    codes = [(n, getattr(optx.RESULTS, n)) for n in _RESULT_NAMES if hasattr(optx.RESULTS, n)]
+    # `==` on an enumeration item gives a (possibly batched) boolean array.
+    hits = [(n, np.asarray(result == item)) for n, item in codes]
+    shape = hits[0][1].shape
+    out = np.full(shape, "unknown", dtype=object)
+    for n, hit in reversed(hits):
+        out = np.where(hit, n, out)
+    return str(out) if out.ndim == 0 else [str(s) for s in out.ravel()]
+
+
+class FitResult(eqx.Module):
+    """The outcome of `fit` (or, with a leading batch axis on every array, of `fit_batch`).
+
+    **Attributes:**
+
+    - `model`: the fitted model, in the representation it was given in (a `PaperShape`
+      stays a `PaperShape`).
+    - `params`: ``{name: value}`` in SI units with the paper's names (two-state:
+      Fs, Fc, Vs, delta, sigma2, a, b, c, alpha, beta, l1, C; GMS: ..., nu_i, k_i).
+    - `stderr`: ``{name: standard error}`` (delta method from the Jacobian at the optimum);
+      0 for held parameters.
+    - `cov`, `corr`: covariance and correlation of `params` in `names` order (NaN rows for
+      held parameters). With a reparameterised `PaperShape`, a/b/c show the near +-1
+      correlations that the reparameterisation removed from the fit itself.
+    - `fit_names`, `cov_fit`, `corr_fit`: the parameters of the representation the solver
+      worked in (for a `PaperShape`: ``l1, alpha, beta_rel, curvature, quartic`` of
+      `NormalizedPaperShape`), their covariance (SI) and correlation: how well conditioned
+      the fit itself was. (The transforms are elementwise, so these correlations are also
+      those of the solver's unconstrained coordinates.)
+    - `prediction`, `residuals`: model force and ``prediction - F`` (N) per sample.
+    - `rmse` (N) over samples of weight > 0; `nrmse` = rmse / (max F - min F), the *range*
+      of the measured force; `r2` = 1 - SS_res / SS_tot.
+    - `condition_number`: of the column-equilibrated Jacobian of the free coordinates.
+    - `result`: the `optimistix.RESULTS` code; `num_steps`: solver iterations. A solve that
+      reaches `max_steps` while the Gauss-Newton step left at its last point is shorter than
+      0.03 standard errors is reported as successful: it is at the optimum, and only the
+      Levenberg-Marquardt stopping rule (every residual's change below tolerance on an
+      accepted step) failed to fire because round-off made it reject its steps.
+    - `free`: names of the fitted leaves; `overflow`: memory-stack overflows in the final
+      simulation (0 unless the model's ``stack_size`` is too small).
+
+    Properties: `converged` (result is successful), `status` (the code's name).
+    """
+
+    model: Any
+    params: dict[str, Array]
+    stderr: dict[str, Array]
+    cov: Array
+    corr: Array
+    cov_fit: Array
+    corr_fit: Array
+    prediction: Any
+    residuals: Any
+    rmse: Array
+    nrmse: Array
+    r2: Array
+    condition_number: Array
+    result: optx.RESULTS
+    num_steps: Array
+    overflow: Array
+    names: tuple[str, ...] = eqx.field(static=True)
+    fit_names: tuple[str, ...] = eqx.field(static=True)
+    free: tuple[str, ...] = eqx.field(static=True)
+
+    @property
+    def converged(self) -> Array:
+        return self.result == optx.RESULTS.successful
+
+    @property
+    def status(self) -> str | list[str]:
+        return status_name(self.result)
+
+    def __getitem__(self, i) -> "FitResult":
+        """Dataset `i` of a batched result (from `fit_batch`)."""
+        return jax.tree.map(lambda a: a[i], self)
+
+    def summary(self) -> str:
+        """A plain-text table: name, value, standard error, relative error (one fit; for
+        a batch use ``result[i].summary()``)."""
+        head = (f"status: {self.status}   steps: {int(self.num_steps)}   "
+                f"RMSE: {float(self.rmse):.4g} N   NRMSE: {float(self.nrmse):.4g}   "
+                f"R2: {float(self.r2):.6f}")
+        lines = [head]
+        for name in self.names:
+            v, s = float(self.params[name]), float(self.stderr[name])
+            rel = f"{100 * s / abs(v):9.3g} %" if v != 0 else ""
+            lines.append(f"  {name:>10s} = {v: .6e}  +- {s:.2e} {rel}")
+        return "\n".join(lines)
+
+
+def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResult:
+    """Turn solver arrays into a `FitResult` (works on batched cores too)."""
+    layout = problem.layout
+    batched = core.y.ndim == 2
+
+    def first(model):  # names and structure do not depend on the values
+        return jax.tree.map(lambda a: np.asarray(a)[0], model) if batched else model
+
+    names = _params.natural_names(first(core.model))
+    leaf_free = np.asarray(layout.leaf_free)
+    return FitResult(
+        model=core.model,
+        params=dict(zip(names, core.params)),
+        stderr=dict(zip(names, core.stderr)),
+        cov=core.cov_natural,
+        corr=core.corr,
+        cov_fit=core.cov_fit,
+        corr_fit=core.corr_fit,
+        prediction=prediction,
+        residuals=residuals,
+        rmse=core.rmse,
+        nrmse=core.nrmse,
+        r2=core.r2,
+        condition_number=core.condition_number,
+        result=core.result,
+        num_steps=core.num_steps,
+        overflow=core.overflow,
+        names=names,
+        fit_names=_params.natural_names(first(core.fit_model)),
+        free=tuple(n for n, f in zip(layout.names, leaf_free) if f),
+    )
+
+
+def _warn_overflow(core: _Core) -> None:
+    total = int(np.sum(np.asarray(core.overflow)))
+    if total > 0:
+        warnings.warn(
+            f"the fitted model's memory stack overflowed {total} time(s) on the data; "
+            "increase the model's stack_size",
+            jaxfric.StackOverflowWarning,
+            stacklevel=3,
+        )

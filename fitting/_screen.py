@@ -1,0 +1,202 @@
+"""Screening one candidate effect, or two together: one linearised (Gauss-Newton) step of the
+joint fit from the baseline optimum, scored by the held-out residual it removes and
+tested for consistency across held-out blocks.
+"""
+
+import dataclasses
+import itertools
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import jaxfric
+from jaxfric import effects as fx
+
+from . import _params
+from ._candidates import (
+    _BOUNDS,
+    _code,
+    _columns,
+    _grid,
+    _signals,
+    _with_linear,
+    Candidate,
+)
+
+
+def _base_jacobian(model, t, x, v, fixed=()):
+    """d force / d (every parameter of `model` not in `fixed`, natural SI values), columns
+    normalised."""
+    p0 = _params.natural_vector(model)
+
+    def force(p):
+        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v)
+
+    J = np.asarray(jax.jacfwd(eqx.filter_jit(force))(p0))
+    J = J[:, [n not in fixed for n in _params.natural_names(model)]]
+    J = J[:, np.all(np.isfinite(J), axis=0)]
+    norms = np.linalg.norm(J, axis=0)
+    return J[:, norms > 0] / norms[norms > 0]
+
+
+def _consistency(ref, new, test, blocks) -> tuple[float, int]:
+    """How consistently residual `new` improves on `ref` over the held-out blocks: the
+    ``t`` statistic (against zero) of the share of each block's SSE removed, one number per
+    block (relative, so that blocks of large and small residual weigh alike and one block
+    cannot carry the verdict), and the number of blocks."""
+    per_block = []
+    for b in np.unique(blocks[test]):
+        in_b = test & (blocks == b)
+        ref_b = float(np.sum(ref[in_b] ** 2))
+        if ref_b > 0:
+            per_block.append((ref_b - float(np.sum(new[in_b] ** 2))) / ref_b)
+    per_block = np.asarray(per_block)
+    if per_block.size < 2:
+        return 0.0, int(per_block.size)
+    sem = per_block.std(ddof=1) / np.sqrt(per_block.size)
+    mean = per_block.mean()
+    t_stat = float(mean / sem) if sem > 0 else (np.inf if mean > 0 else 0.0)
+    return t_stat, int(per_block.size)
+
+
+def _base_signals(model, t, x, v):
+    """The signals effects are built from (`_signals`), at the force of `model` without
+    its added effects."""
+    base_model = model.base if isinstance(model, fx.WithEffects) else model
+    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
+    return _signals(t, x, v, base_force,
+                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
+
+
+def _unit_columns(B, train):
+    """`B` with each column scaled to unit norm on the training samples, and the scales."""
+    scale = np.linalg.norm(B[train], axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    return B / scale, scale
+
+
+def _regress(resid, train, *blocks):
+    """The linearised step every screen takes: least squares of `resid` on the columns of
+    `blocks` (the model's Jacobian, effect columns) over the training samples. Returns
+    what is left of `resid` on all samples, and the coefficients."""
+    A = np.concatenate(blocks, axis=1)
+    coef, *_ = np.linalg.lstsq(A[train], resid[train], rcond=1e-10)
+    return resid - A @ coef, coef
+
+
+def _normalised_columns(candidates, model, t, x, v, train):
+    """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
+    the training samples: a list of ``(columns, scale)``."""
+    s = _base_signals(model, t, x, v)
+    return [_unit_columns(_columns(c.effect, s), train) for c in candidates]
+
+
+def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_score, min_t):
+    """Re-test the leading candidates together: with two effects hidden, each one's screen
+    sees the other's residual as noise, which can make a real effect look inconsistent
+    across blocks. The candidates with a score of at least `min_score` (at most three) are
+    regressed jointly (with the model's Jacobian); each one's consistency is then that of
+    the held-out residual with all of them against the residual without it. A candidate
+    that is consistent this way becomes significant (the score, its size, is unchanged)."""
+    lead = [c for c in candidates[:3] if c.score >= min_score]
+    if len(lead) < 2:
+        return
+    cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train)]
+
+    full, _ = _regress(resid, train, J, *cols)
+    for i, c in enumerate(lead):
+        without, _ = _regress(resid, train, J, *cols[:i], *cols[i + 1:])
+        t_joint, n_blocks = _consistency(without, full, test, blocks)
+        if not c.significant and t_joint >= min_t:
+            others = ", ".join(o.name for o in lead if o is not c)
+            c.significant = True
+            c.t_stat = t_joint
+            c.evidence += (f"; consistent when fitted together with {others} "
+                           f"(t = {t_joint:.1f} over {n_blocks} held-out blocks)")
+
+
+@dataclasses.dataclass
+class _Pair:
+    """Two candidates regressed together: `score` (held-out SSE share removed by both,
+    normalised as a single screen's), `shares` (each one's part: the SSE removed by adding
+    it to the other), `effects` (with the joint regression's values)."""
+
+    score: float
+    candidates: tuple[Candidate, Candidate]
+    shares: tuple[float, float]
+    effects: tuple[fx.AbstractEffect, fx.AbstractEffect]
+
+
+def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pair]:
+    """Every pair of screened candidates regressed together with the model's Jacobian (the
+    single screens' Gauss-Newton step with two effects), best pair first. Two missing
+    effects whose terms are partly alike (an asymmetry and a position dependence along
+    strokes that run in one direction over one part of the travel) each screen poorly
+    alone, as each one's fit is bent by the other; together they can explain much more
+    than either."""
+    if len(candidates) < 2:
+        return []
+    cols = _normalised_columns(candidates, model, t, x, v, train)
+
+    def solve(used):
+        new, coef = _regress(resid, train, J, *(cols[i][0] for i in used))
+        return new, coef[J.shape[1]:]
+
+    def sse(r):
+        return float(np.sum(r[test] ** 2))
+
+    ref, _ = solve(())
+    norm = max(sse(ref), float(np.sum(resid[test] ** 2)), 1e-300)
+    alone = [sse(solve((i,))[0]) for i in range(len(candidates))]
+    pairs = []
+    for i, j in itertools.combinations(range(len(candidates)), 2):
+        full, coef = solve((i, j))
+        q = cols[i][0].shape[1]
+        w_i, w_j = coef[:q] / cols[i][1], coef[q:] / cols[j][1]
+        pairs.append(_Pair(
+            score=(sse(ref) - sse(full)) / norm,
+            candidates=(candidates[i], candidates[j]),
+            shares=((alone[j] - sse(full)) / norm, (alone[i] - sse(full)) / norm),
+            effects=(_with_linear(candidates[i].effect, w_i),
+                     _with_linear(candidates[j].effect, w_j))))
+    pairs.sort(key=lambda p: p.score, reverse=True)
+    return pairs
+
+
+def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
+    s = _base_signals(model, t, x, v)
+    best = None
+    base_test = resid[test]
+    # The model's own parameters alone (one Gauss-Newton step): the reference.
+    ref, _ = _regress(resid, train, J)
+    sse_base = max(float(np.sum(base_test**2)), 1e-300)
+    bounds = _BOUNDS.get(name)
+    for effect in _grid(name, t, x, v, F):
+        B = _columns(effect, s)
+        if not np.all(np.isfinite(B)) or not np.any(B[train]):
+            continue
+        unit, scale = _unit_columns(B, train)
+        new, coef = _regress(resid, train, J, unit)
+        w = coef[J.shape[1]:] / scale
+        if bounds is not None and np.any((w < bounds[0]) | (w > bounds[1])):
+            # Outside its physical range: hold it at the bound, refit the model's part.
+            w = np.clip(w, *bounds)
+            new, _ = _regress(resid - B @ w, train, J)
+        # Held-out SSE removed beyond what the model's own parameters do in the same
+        # linearised step, as a fraction of the larger of the two reference SSEs (<= 1).
+        sse_new, sse_ref = float(np.sum(new[test] ** 2)), float(np.sum(ref[test] ** 2))
+        gain = (sse_ref - sse_new) / max(sse_ref, sse_base)
+        if best is None or gain > best[0]:
+            best = (gain, effect, w, new)
+    if best is None:
+        return None
+    gain, effect, w, new = best
+    t_stat, n_blocks = _consistency(ref, new, test, blocks)
+    effect = _with_linear(effect, w)
+    significant = bool(gain >= min_score and t_stat >= min_t)
+    evidence = (f"{effect.describe()}; explains {100 * gain:.3g} % of the held-out residual "
+                f"variance (consistent over {n_blocks} held-out blocks: t = {t_stat:.1f})")
+    code = _code(effect)
+    return Candidate(name, effect, float(gain), t_stat, significant, evidence, code)

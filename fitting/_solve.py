@@ -1,0 +1,229 @@
+"""The compiled solve: optimistix least squares on the residual of `_problem`, and in the
+same compiled call everything the result needs (covariances by the delta method, the
+condition number, metrics); batches of independent fits, on one device or spread over
+several.
+"""
+
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array
+
+from . import _params
+from ._data import Dataset
+from ._problem import _force_scale, _Problem, _residuals
+
+
+# Eigenvalues of the equilibrated J^T J below this fraction of the largest are treated as
+# this fraction: an undetermined direction then shows as an enormous (not NaN) stderr.
+_EIG_FLOOR = 1e-15
+
+
+def default_solver() -> optx.LevenbergMarquardt:
+    """``optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)`` (see the module docstring).
+
+    optimistix stops when both the last step in ``y`` and the change of every residual are
+    below ``atol + rtol*|value|``. ``y`` is of order one (scaled coordinates) and residuals
+    are in units of the force's standard deviation, so 1e-6 means parameters settled to
+    about 1e-6 relative, far below any standard error, while tighter tolerances only make
+    the last iterations dither.
+    """
+    return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)
+
+
+class _Core(eqx.Module):
+    """Every array that comes out of one solve (vmapped for batches)."""
+
+    y: Array
+    result: optx.RESULTS
+    num_steps: Array
+    prediction: Array
+    overflow: Array
+    natural: Array
+    cov_natural: Array
+    cov_fit: Array
+    rmse: Array
+    nrmse: Array
+    r2: Array
+    condition_number: Array
+    # For the `FitResult`, computed in the same compiled call (run op by op, they cost
+    # the first fit of a session a few dozen small compilations):
+    model: Any  # the fitted model as the user gave it (`PaperShape` if it had one)
+    fit_model: Any  # the fitted model in the fit representation
+    params: tuple[Array, ...]  # `natural` split into its entries
+    stderr: tuple[Array, ...]
+    corr: Array
+    corr_fit: Array
+
+
+def _covariance(jac, resid, mask, n_obs):
+    """``s^2 (J^T J)^-1`` restricted to the free coordinates (zero rows/cols elsewhere).
+
+    Columns are equilibrated first (unit norm) so that the eigen-decomposition sees the
+    correlation structure, not the units; the condition number returned is that of the
+    equilibrated free Jacobian (1 = orthogonal parameters; 1e8 = nearly collinear).
+    """
+    jac = jac * mask
+    norms = jnp.linalg.norm(jac, axis=0)
+    norms = jnp.where(norms > 0, norms, 1.0)
+    jn = jac / norms
+    a = jn.T @ jn + jnp.diag(1.0 - mask)
+    eig, vec = jnp.linalg.eigh(a)
+    eig = jnp.maximum(eig, _EIG_FLOOR * jnp.max(eig))
+    inv = (vec / eig) @ vec.T
+    n_free = jnp.sum(mask)
+    dof = jnp.maximum(n_obs - n_free, 1.0)
+    s2 = jnp.sum(resid**2) / dof
+    cov = s2 * inv / jnp.outer(norms, norms) * jnp.outer(mask, mask)
+    # Singular values (descending; the fixed columns give zeros) of the p x p factor R of
+    # jn = QR, which are those of jn: on the CPU, `svd(jn, compute_uv=False)` allocates an
+    # n x n buffer (80 GB at n = 1e5).
+    sv = jnp.linalg.svd(jnp.linalg.qr(jn, mode="r"), compute_uv=False)
+    k = jnp.maximum(n_free.astype(jnp.int32) - 1, 0)
+    cond = jnp.where(n_free > 0, sv[0] / sv[k], 1.0)
+    return cov, cond
+
+
+def _remaining_step(jac, resid, mask, n_obs):
+    """Length, in standard errors, of the Gauss-Newton step left at the solver's last
+    point: ``sqrt(z2)`` with ``z2 = dy^T (J^T J / s^2) dy = |J dy|^2 / s^2`` for the step
+    ``dy`` over the free coordinates and ``s^2 = RSS/n_obs``."""
+    jf = jnp.where(mask[None, :], jac, 0.0)
+    # |J dy|^2 is the squared projection of the residual onto the column space of J: from
+    # the thin SVD (n x p, never n x n), over the singular values that are not zero.
+    u, sv, _ = jnp.linalg.svd(jf, full_matrices=False)
+    keep = sv > 1e-10 * jnp.max(sv)
+    projected = jnp.sum(jnp.where(keep, u.T @ resid, 0.0) ** 2)
+    z2 = projected / jnp.maximum(jnp.sum(resid**2) / n_obs, 1e-300)
+    return jnp.sqrt(z2)
+
+
+def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) -> _Core:
+    scale = _force_scale(data)
+    args = (problem, data, scale)
+    sol = optx.least_squares(
+        _residuals, solver, y0, args, has_aux=True, max_steps=max_steps, throw=False
+    )
+    y = sol.value
+    # The solver's last accepted point is `y`: its residuals, Jacobian and aux (the force)
+    # are reused rather than recomputed, which would trace and compile the JVP of the
+    # simulation a second time (the dominant cost of a fit).
+    force, overflow = sol.aux
+    overflow = overflow.astype(jnp.int32)
+    f_info = getattr(sol.state, "f_info", None)
+    if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+        resid = f_info.residual.ravel()
+        jac = f_info.jac.as_matrix()
+    else:  # a minimiser: no Jacobian in its state
+        def resid_fn(yy):
+            return _residuals(yy, args)[0].ravel()
+
+        resid = resid_fn(y)
+        jac = jax.jacfwd(resid_fn)(y)
+    observed = data.weights > 0
+    n_obs = jnp.sum(observed).astype(y.dtype)
+    cov_y, cond = _covariance(jac, resid, problem.layout.coordinate_mask(), n_obs)
+    result = optx.RESULTS.where(  # see `FitResult`: dithering at the optimum is converged
+        (sol.result == optx.RESULTS.nonlinear_max_steps_reached)
+        & (_remaining_step(jac, resid, problem.layout.coordinate_mask(), n_obs) < 0.03),
+        optx.RESULTS.successful, sol.result)
+
+    # Delta method: covariances of the reported (paper) parameters and of the fit
+    # representation's own parameters, from cov(y).
+    def natural_fn(yy):
+        return _params.natural_vector(problem.user_model(yy))
+
+    def fit_fn(yy):
+        return _params.natural_vector(problem.model(yy))
+
+    g = jax.jacfwd(natural_fn)(y)
+    g_fit = jax.jacfwd(fit_fn)(y)
+
+    err = jnp.where(observed, force - data.F, 0.0)
+    rmse = jnp.sqrt(jnp.sum(err**2) / n_obs)
+    f_obs_mean = jnp.sum(jnp.where(observed, data.F, 0.0)) / n_obs
+    ss_tot = jnp.sum(jnp.where(observed, (data.F - f_obs_mean) ** 2, 0.0))
+    f_range = jnp.max(jnp.where(observed, data.F, -jnp.inf)) - jnp.min(
+        jnp.where(observed, data.F, jnp.inf)
+    )
+    natural = natural_fn(y)
+    cov_natural = g @ cov_y @ g.T
+    cov_fit = g_fit @ cov_y @ g_fit.T
+    sd = jnp.sqrt(jnp.diagonal(cov_natural))
+    return _Core(
+        y=y,
+        result=result,
+        num_steps=sol.stats["num_steps"],
+        prediction=force,
+        overflow=overflow,
+        natural=natural,
+        cov_natural=cov_natural,
+        cov_fit=cov_fit,
+        rmse=rmse,
+        nrmse=rmse / f_range,
+        r2=1.0 - jnp.sum(err**2) / ss_tot,
+        condition_number=cond,
+        model=problem.user_model(y),
+        fit_model=problem.model(y),
+        params=tuple(natural[i] for i in range(natural.shape[0])),
+        stderr=tuple(sd[i] for i in range(sd.shape[0])),
+        corr=_correlation(cov_natural),
+        corr_fit=_correlation(cov_fit),
+    )
+
+
+_solve = eqx.filter_jit(_solve_impl)
+
+
+@eqx.filter_jit
+def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
+    # Over datasets only; returning arrays and the result code (never the whole optimistix
+    # Solution, whose state holds jaxprs that cannot be batched: optimistix issues #38 and
+    # #63). A failure in one dataset only shows in its own `result`.
+    # `lax.map` (default): one dataset after the other through the unbatched solve, which
+    # on a CPU compiles and runs faster than the vmapped loop, and each dataset stops at
+    # its own termination (under `vmap` the loop runs until the slowest dataset stops;
+    # benchmarks/throughput.py compares both). `vmap` (`vectorize=True`): one loop for
+    # all, for accelerators.
+    def one(d):
+        return _solve_impl(problem, y0, d, solver, max_steps)
+
+    return jax.vmap(one)(data) if vectorize else jax.lax.map(one, data)
+
+
+def _correlation(cov):
+    sd = jnp.sqrt(jnp.diagonal(cov, axis1=-2, axis2=-1))
+    denom = sd[..., :, None] * sd[..., None, :]
+    return jnp.where(denom > 0, cov / jnp.where(denom > 0, denom, 1.0), jnp.nan)
+
+
+def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize):
+    """`_solve_batch` with the B datasets split into contiguous shares, one per device.
+
+    Each share is placed on its device and solved there by the same compiled function;
+    JAX dispatches asynchronously, so the devices work at the same time, and the solver
+    loops never wait for one another (a GSPMD-partitioned `vmap` would synchronise every
+    iteration of every loop across devices). The last share is padded with copies of its
+    last dataset, so that all shares have one shape, and the copies are dropped."""
+    count = jax.tree.leaves(data)[0].shape[0]
+    share = -(-count // len(devices))
+    pending = []
+    for k, device in enumerate(devices):
+        lo, hi = k * share, (k + 1) * share
+        part = jax.tree.map(lambda a, lo=lo, hi=hi: np.asarray(a[lo:hi]), data)
+        size = jax.tree.leaves(part)[0].shape[0]
+        if size == 0:
+            break
+        if size < share:
+            part = jax.tree.map(
+                lambda a, pad=share - size: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]),
+                part)
+        problem_k, y0_k, part = jax.device_put((problem, y0, part), device)
+        pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps,
+                                           vectorize)))
+    shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in pending]
+    return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)
