@@ -79,6 +79,19 @@ def _call(log, fn):
             "trace_s": sum(e["s"] for e in events if e["kind"] == "trace"), "events": events}
 
 
+def _data(n: int, batch: int):
+    """The start model, one dataset of n samples and `batch` datasets of 1000 samples."""
+    truth = paper.two_state()
+    t, x = mixed_path(n)
+    F = synthetic_force(truth, t, x, np.random.default_rng(1))
+    rng = np.random.default_rng(3)
+    pairs = [mixed_path(1000, dt=4e-3, rng=rng) for _ in range(batch)]
+    T = np.stack([p[0] for p in pairs])
+    X = np.stack([p[1] for p in pairs])
+    FB = np.stack([synthetic_force(truth, T[i], X[i], rng) for i in range(batch)])
+    return perturbed_start(truth), (t, x, F), (T, X, FB)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=float, default=1e4, help="samples of the single fit")
@@ -92,15 +105,7 @@ def main(argv=None) -> None:
     if args.cache_dir:
         jaxfric.enable_compilation_cache(args.cache_dir)
 
-    truth = paper.two_state()
-    start = perturbed_start(truth)
-    t, x = mixed_path(n)
-    F = synthetic_force(truth, t, x, np.random.default_rng(1))
-    rng = np.random.default_rng(3)
-    pairs = [mixed_path(1000, dt=4e-3, rng=rng) for _ in range(args.batch)]
-    T = np.stack([p[0] for p in pairs])
-    X = np.stack([p[1] for p in pairs])
-    FB = np.stack([synthetic_force(truth, T[i], X[i], rng) for i in range(args.batch)])
+    start, (t, x, F), (T, X, FB) = _data(n, args.batch)
 
     log = _Log()
     logger = logging.getLogger("jax")

@@ -36,8 +36,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import paper
-from jaxfric.motion import make_motion, reversal_bound
 from jaxfric._models import two_state
+from jaxfric.motion import make_motion, reversal_bound
 
 
 try:

@@ -307,6 +307,15 @@ def bench_single(sizes, repeats, log) -> dict:
     return {"rows": rows, "agreement": checks}
 
 
+def _batch_paths(B, n, rng) -> tuple[np.ndarray, np.ndarray]:
+    """B mixed paths of n samples on one time grid: ``(T, X)``, each ``(B, n)``."""
+    T = np.tile(mixed_path(n)[0], (B, 1))
+    X = np.empty((B, n))
+    for j in range(B):
+        X[j] = mixed_path(n, rng=rng)[1]
+    return T, X
+
+
 def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
     """Section 2: vmapped jaxfric against the Numba prange batch, per B."""
     model = paper.two_state()
@@ -315,10 +324,7 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
     rows = []
     rng = np.random.default_rng(7)
     for B in sizes_B:
-        T = np.tile(mixed_path(n)[0], (B, 1))  # one time grid for all
-        X = np.empty((B, n))
-        for j in range(B):
-            X[j] = mixed_path(n, rng=rng)[1]
+        T, X = _batch_paths(B, n, rng)
         # Under vmap the positions are traced, so the static bound on the reversals that
         # `simulate` computes itself on concrete data is passed, as a user would.
         bound = max(jaxfric.reversal_bound(T[j], X[j]) for j in range(B))

@@ -28,8 +28,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import paper
-from jaxfric.motion import make_motion
 from jaxfric._models import two_state
+from jaxfric.motion import make_motion
 
 
 try:

@@ -49,8 +49,8 @@ def test_library_files_are_small_and_say_what_they_are():
     too_long = {str(p.relative_to(ROOT)): n for p in files
                 if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert not too_long, f"files over {MAX_LINES} lines: {too_long}"
-    undocumented = [str(p.relative_to(ROOT)) for p in files
-                    if p.read_text().strip() and ast.get_docstring(ast.parse(p.read_text())) is None]
+    undocumented = [str(p.relative_to(ROOT)) for p in files if p.read_text().strip()
+                    and ast.get_docstring(ast.parse(p.read_text())) is None]
     assert not undocumented, f"modules without a docstring: {undocumented}"
 
 
