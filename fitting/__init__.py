@@ -81,6 +81,8 @@ set, the starting values or the weights does not recompile (see `fitting._proble
 whose number of reversals falls in another power-of-two bucket (up to 64, 128, 256, ...)
 does, as the two-state simulation sizes its list of reversals by it.
 """
+# The fit's shape coordinates are a shape family of the core, re-exported here.
+from jaxfric import NormalizedPaperShape as NormalizedPaperShape
 
 from ._candidates import Candidate as Candidate
 from ._data import Dataset as Dataset
@@ -94,7 +96,6 @@ from ._params import (
 )
 from ._regimes import regime_errors as regime_errors, regimes as regimes
 from ._result import FitResult as FitResult
-from ._shape import NormalizedPaperShape as NormalizedPaperShape
 from ._solve import default_solver as default_solver
 from ._staged import (
     constant_velocity_segments as constant_velocity_segments,

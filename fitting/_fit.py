@@ -117,7 +117,8 @@ def fit(
     - `max_steps`: iteration limit; reaching it is reported, not raised.
     - `weights`: per-sample weights >= 0 (``None``: all 1).
     - `reparameterize`: fit a `PaperShape` in `NormalizedPaperShape` coordinates (default;
-      see `fitting._shape` for why); ``False`` fits ``a, b, c, alpha, beta, l1`` directly.
+      see `jaxfric.NormalizedPaperShape` for why); ``False`` fits ``a, b, c, alpha, beta,
+      l1`` directly.
 
     **Returns:** a `FitResult`. Failures to converge are reported in ``result``/``status``
     (``throw=False``); shape and value problems of the inputs raise `ValueError`.

@@ -18,9 +18,9 @@ import numpy as np
 from jaxtyping import Array
 
 import jaxfric
+from jaxfric import NormalizedPaperShape
 from jaxfric._fields import parameter_info
 
-from ._shape import NormalizedPaperShape
 from ._transforms import AbstractTransform, Exp, Identity, ParamProps, Sigmoid, Simplex
 
 

@@ -21,10 +21,10 @@ import numpy as np
 from jaxtyping import Array
 
 import jaxfric
+from jaxfric import NormalizedPaperShape
 
 from . import _params
 from ._data import Dataset
-from ._shape import NormalizedPaperShape
 
 
 class _Problem(eqx.Module):

@@ -19,11 +19,10 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxfric
-from jaxfric import paper
+from jaxfric import NormalizedPaperShape, paper
 from jaxfric.motion import travel_since_reversal, velocity
 
 from ._data import Dataset
-from ._shape import NormalizedPaperShape
 from ._staged import _estimate_l1, constant_velocity_segments, initial_stribeck
 
 

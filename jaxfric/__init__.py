@@ -20,6 +20,7 @@ from ._models.gms import GMS as GMS, GMSState as GMSState
 from ._models.lugre import LuGre as LuGre, LuGreState as LuGreState
 from ._models.tustin import Tustin as Tustin
 from ._models.two_state import TwoState as TwoState, TwoStateState as TwoStateState
+from ._normalized_shape import NormalizedPaperShape as NormalizedPaperShape
 from ._serialize import (
     load_model as load_model,
     model_from_dict as model_from_dict,

@@ -1,6 +1,6 @@
 """The paper's presliding shape in well-conditioned coordinates (the a/b correlation).
 
-`jaxfric.PaperShape` normalises the saw-tooth curve
+`PaperShape` normalises the saw-tooth curve
 ``F(x) = a*exp(b*beta**alpha) - a*exp(b*(x+beta)**alpha) - c*x**4`` on ``[0, X]``,
 ``X = 2*Fs*l1``, into ``Pi(xi) = F(2*Fs*xi) / F(X)``. Fitted in the symbols ``a..beta``
 this is badly posed:
@@ -22,7 +22,7 @@ with five dimensionless-or-natural coordinates: ``l1`` (m/N), ``alpha``, ``beta_
 0 is allowed) and ``quartic = c*X**4 / (a*exp(b*beta**alpha) - a*exp(b*(X+beta)**alpha))`` (the
 share of the ``c*x**4`` term at ``X``). The scale of ``(a, c)`` is gone, and the near-linear
 exponential becomes one small coordinate instead of a ridge between two huge ones. It is a
-`jaxfric.AbstractShape`, so a `TwoState` holding it is an ordinary jaxfric model (the fit
+`AbstractShape`, so a `TwoState` holding it is an ordinary jaxfric model (the fit
 simulates it directly), and `to_paper` maps it back to the paper's symbols.
 
 Mapping back needs the scale the ratio dropped. We use ``F(X) = 2*Fs``: in the saw-tooth
@@ -34,9 +34,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
-import jaxfric
-from jaxfric._fields import param
-from jaxfric._numerics import safe_div, safe_pow
+from ._fields import param
+from ._numerics import safe_div, safe_pow
+from ._shapes import AbstractShape, PaperShape
 
 
 # Below this |curvature| the exponential's ratio is replaced by its series (see _ratio).
@@ -53,7 +53,7 @@ def _ratio(w: Array, k: Array) -> Array:
     return jnp.where(small, series, exact)
 
 
-class NormalizedPaperShape(jaxfric.AbstractShape):
+class NormalizedPaperShape(AbstractShape):
     """The paper's presliding family in well-conditioned coordinates (see module docstring).
 
     **Arguments:**
@@ -81,11 +81,11 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
         return (_ratio(w, self.curvature) - self.quartic * u**4) / (1.0 - self.quartic)
 
     @classmethod
-    def from_paper(cls, shape: jaxfric.PaperShape, Fs: ArrayLike) -> "NormalizedPaperShape":
+    def from_paper(cls, shape: PaperShape, Fs: ArrayLike) -> "NormalizedPaperShape":
         """The same ``Pi`` as `shape` for a static level `Fs` (N)."""
         return _from_paper(cls, shape, jnp.asarray(Fs))
 
-    def to_paper(self, Fs: ArrayLike) -> jaxfric.PaperShape:
+    def to_paper(self, Fs: ArrayLike) -> PaperShape:
         """The paper's symbols ``a, b, c, alpha, beta, l1`` (SI) for static level `Fs` (N),
         with the scale convention ``F(X) = 2*Fs``. ``a -> inf`` and ``b -> 0`` as
         ``curvature -> 0`` (a straight power law): ``a*b`` stays finite. A `curvature`
@@ -102,7 +102,7 @@ class NormalizedPaperShape(jaxfric.AbstractShape):
         exp_part = 2.0 * Fs / (1.0 - self.quartic)  # a*e^{b beta^alpha}*(1 - e^{-curvature})
         a = -exp_part / (jnp.exp(b * b_lo) * jnp.expm1(-curvature))
         c = self.quartic * exp_part / big_x**4
-        return jaxfric.PaperShape(a=a, b=b, c=c, alpha=self.alpha, beta=beta, l1=self.l1)
+        return PaperShape(a=a, b=b, c=c, alpha=self.alpha, beta=beta, l1=self.l1)
 
 
 # One compiled call: op by op, the first fit of a session compiled some ten small kernels.
