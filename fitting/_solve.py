@@ -111,19 +111,24 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     y = sol.value
     # The solver's last accepted point is `y`: its residuals, Jacobian and aux (the force)
     # are reused rather than recomputed, which would trace and compile the JVP of the
-    # simulation a second time (the dominant cost of a fit).
-    force, overflow = sol.aux
-    overflow = overflow.astype(jnp.int32)
+    # simulation a second time (the dominant cost of a fit). They are taken from the
+    # solver's state, which holds them for `y`: `sol.aux` of the Gauss-Newton family is
+    # the aux of the point accepted *before* `y` (optimistix returns `prev_aux` from each
+    # step), so the prediction and RMSE would belong to another model than the one
+    # returned (visibly so for a fit stopped at its step limit).
     f_info = getattr(sol.state, "f_info", None)
     if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+        force, overflow = sol.state.aux
         resid = f_info.residual.ravel()
         jac = f_info.jac.as_matrix()
-    else:  # a minimiser: no Jacobian in its state
+    else:  # a minimiser: no Jacobian in its state; evaluate everything at `y`
         def resid_fn(yy):
             return _residuals(yy, args)[0].ravel()
 
+        force, overflow = _residuals(y, args)[1]
         resid = resid_fn(y)
         jac = jax.jacfwd(resid_fn)(y)
+    overflow = overflow.astype(jnp.int32)
     observed = data.weights > 0
     n_obs = jnp.sum(observed).astype(y.dtype)
     cov_y, cond = _covariance(jac, resid, problem.layout.coordinate_mask(), n_obs)
