@@ -58,7 +58,7 @@ from . import _params
 from ._candidates import _code, Candidate
 from ._fit import fit
 from ._regimes import holdout_mask, regime_errors, regimes
-from ._result import FitResult
+from ._result import FitResult, saved_model
 from ._screen import _base_jacobian, _consistency, _joint_check, _pair_screen, _screen
 
 
@@ -108,6 +108,7 @@ class Diagnosis:
                       "regimes": self.final.regimes,
                       "steps": [{"added": s.added, "rmse": s.rmse,
                                  "rmse_holdout": s.rmse_holdout} for s in self.steps]},
+            "fitted_model": saved_model(self.model),
         }
 
     def summary(self) -> str:

@@ -43,6 +43,9 @@ class FitResult(eqx.Module):
 
     - `model`: the fitted model, in the representation it was given in (a `PaperShape`
       stays a `PaperShape`).
+    - `fit_model`: the fitted model as the solver built it (a `PaperShape` as the
+      equivalent `NormalizedPaperShape`): the model whose simulation is `prediction`,
+      finite where the paper's ``a`` overflows; what `jaxfric.save_model` should keep.
     - `params`: ``{name: value}`` in SI units with the paper's names (two-state:
       Fs, Fc, Vs, delta, sigma2, a, b, c, alpha, beta, l1, C; GMS: ..., nu_i, k_i).
     - `stderr`: ``{name: standard error}`` (delta method from the Jacobian at the optimum);
@@ -71,6 +74,7 @@ class FitResult(eqx.Module):
     """
 
     model: Any
+    fit_model: Any
     params: dict[str, Array]
     stderr: dict[str, Array]
     cov: Array
@@ -128,6 +132,7 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResul
     leaf_free = np.asarray(layout.leaf_free)
     return FitResult(
         model=core.model,
+        fit_model=core.fit_model,
         params=dict(zip(names, core.params)),
         stderr=dict(zip(names, core.stderr)),
         cov=core.cov_natural,
@@ -158,3 +163,12 @@ def _warn_overflow(core: _Core) -> None:
             jaxfric.StackOverflowWarning,
             stacklevel=3,
         )
+
+
+def saved_model(model) -> dict | None:
+    """`model` as `jaxfric.model_to_dict` writes it for a result's JSON (exact, reloadable
+    with `jaxfric.load_model`), or None if a value is not finite (a diverged fit)."""
+    try:
+        return jaxfric.model_to_dict(model)
+    except ValueError:
+        return None

@@ -9,6 +9,7 @@ import numpy as np
 from jaxfric import data as _data
 
 from .._params import natural_units
+from .._result import saved_model
 
 
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
@@ -62,6 +63,7 @@ def result_json(kind: str, res, m) -> dict:
         "converged": bool(res.converged),
         "status": res.status,
         "iterations": int(res.num_steps),
+        "fitted_model": saved_model(res.fit_model),
     }
 
 
