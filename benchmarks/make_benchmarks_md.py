@@ -1,11 +1,12 @@
-"""Write BENCHMARKS.md from the JSON of ``benchmarks/throughput.py``.
+"""Write BENCHMARKS.md and the documentation's benchmark page from the JSON of
+``benchmarks/throughput.py``.
 
-Run ``python benchmarks/make_benchmarks_md.py RESULTS.json [--out BENCHMARKS.md]
-[--notes NOTES.md]``. Everything in the page comes from the JSON (no number is typed in
-here): the machine, the command that reproduces the run, every table, the goals with
-PASS/MISS, and a "Why" section taken from the JSON's ``notes`` field (a string or a list
-of paragraphs) or from ``--notes`` (a Markdown file, which wins). Without notes the section
-says so, as a placeholder to fill after reading the numbers.
+Run ``python benchmarks/make_benchmarks_md.py RESULTS.json``: it writes ``BENCHMARKS.md``
+at the repository root and ``docs/benchmarks.md`` (the same text, with links relative to
+``docs/``). Everything in the pages comes from the JSON (no number is typed in here): the
+machine, the command that reproduces the run, every table and the goals with PASS/MISS.
+Why the numbers are what they are is explained once, by hand, in
+``docs/benchmark_notes.md``, which both pages link to.
 
 Units: seconds (s), microseconds per step (us/step), nanoseconds per trajectory-step, N.
 """
@@ -56,8 +57,10 @@ def section_machine(d) -> str:
         ["JAX devices", ", ".join(m.get("jax_devices") or [])],
         ["precision", f"{m.get('float_dtype')} (jax_enable_x64 = {m.get('jax_x64')})"],
         ["XLA_FLAGS", m.get("xla_flags") or "(unset)"],
-        ["git commit", f"{m.get('git_commit')}" + (" (uncommitted changes)"
-                                                   if m.get("git_dirty") else "")],
+        # The commit is provenance for whoever re-runs the numbers: it stays in the JSON
+        # (machine.git_commit); the page, read by users, names where to find it.
+        ["code", "the commit in the JSON's `machine.git_commit`" + (
+            " (with uncommitted changes)" if m.get("git_dirty") else "")],
         ["date (UTC)", d.get("date_utc", "-")],
         ["total run time", f"{d.get('total_s', 0):.0f} s"],
     ]
@@ -224,19 +227,11 @@ def section_ratios(d) -> str:
             "(> 1: the second is faster).\n\n" + md_table(["pair", "size", "ratio"], rows))
 
 
-def notes_text(d, notes_file: str | None) -> str:
-    if notes_file:
-        return Path(notes_file).read_text().strip()
-    notes = d.get("notes")
-    if notes:
-        return notes.strip() if isinstance(notes, str) else "\n\n".join(
-            str(p).strip() for p in notes)
-    return ("_No notes recorded for this run. Put the explanation of the numbers in the "
-            "JSON's `notes` field (a string or a list of paragraphs; `throughput.py --notes`) "
-            "or pass `--notes NOTES.md`, and re-run `make_benchmarks_md.py`._")
+#: The hand-written explanation of the numbers, relative to the repository root.
+NOTES = "docs/benchmark_notes.md"
 
 
-def render(d: dict, json_name: str, notes_file: str | None = None) -> str:
+def render(d: dict, json_name: str, notes_link: str = NOTES) -> str:
     quick = d.get("quick")
     parts = ["# Benchmarks", ""]
     parts.append(
@@ -252,12 +247,14 @@ def render(d: dict, json_name: str, notes_file: str | None = None) -> str:
                       "that the script works, not how fast jaxfric is."]
     parts += ["", "## Reproduce", "", "```bash",
               d.get("command", "python benchmarks/throughput.py --json OUT.json"),
-              f"python benchmarks/make_benchmarks_md.py {json_name}"
-              + (f" --notes {notes_file}" if notes_file else ""), "```", "",
+              f"python benchmarks/make_benchmarks_md.py {json_name}", "```", "",
               f"Repeats: {d['config']['repeats']}. Sizes: {json.dumps(d['config'])}.", "",
               "## Machine", "", section_machine(d), "",
-              "## Goals (issue 7)", "", section_goals(d), "",
-              "## Why", "", notes_text(d, notes_file), "",
+              "## Goals", "", section_goals(d), "",
+              "## Why", "",
+              f"Where the time goes, why the missed goals are missed (measured, with the "
+              f"profiles that show it) and what was tried: [the benchmark notes]({notes_link}).",
+              "",
               "## Single trajectory", "",
               "`jaxfric.simulate(model, t, x)` (the public call, with its input checks) on a "
               "mixed motion: a 1 mm, 0.2 Hz sliding sine plus 100 um (1.3 Hz) and 20 um "
@@ -274,17 +271,20 @@ def render(d: dict, json_name: str, notes_file: str | None = None) -> str:
 
 
 def main(argv=None) -> int:
+    root = Path(__file__).resolve().parents[1]
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("json", help="output of benchmarks/throughput.py --json")
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "BENCHMARKS.md"),
+    ap.add_argument("--out", default=str(root / "BENCHMARKS.md"),
                     help="Markdown file to write (default: BENCHMARKS.md at the repo root)")
-    ap.add_argument("--notes", default=None,
-                    help="Markdown file for the 'Why' section (overrides the JSON's notes)")
+    ap.add_argument("--docs", default=str(root / "docs" / "benchmarks.md"),
+                    help="the documentation page (default: docs/benchmarks.md; '' for none)")
     args = ap.parse_args(argv)
     d = json.loads(Path(args.json).read_text())
-    text = render(d, args.json, args.notes)
-    Path(args.out).write_text(text)
+    Path(args.out).write_text(render(d, args.json))
     print(f"wrote {args.out}")
+    if args.docs:
+        Path(args.docs).write_text(render(d, args.json, notes_link=Path(NOTES).name))
+        print(f"wrote {args.docs}")
     return 0
 
 

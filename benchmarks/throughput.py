@@ -777,8 +777,6 @@ def main(argv=None) -> int:
     ap.add_argument("--json", metavar="OUT", help="write every number to this JSON file")
     ap.add_argument("--mem-budget-gb", type=float, default=4.0,
                     help="skip batch sizes whose estimated footprint exceeds this (GiB)")
-    ap.add_argument("--notes", default=None,
-                    help="text for the 'why' section of BENCHMARKS.md (stored in the JSON)")
     ap.add_argument("--float32-worker", nargs=2, metavar=("IN", "OUT"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.float32_worker:
@@ -806,7 +804,7 @@ def main(argv=None) -> int:
         f" {a}" for a in (argv if argv is not None else sys.argv[1:]))
     results = {"command": command, "quick": bool(args.quick), "config": cfg,
                "date_utc": time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime()),
-               "machine": machine_facts(), "notes": args.notes}
+               "machine": machine_facts()}
     log("Numba JIT compile")
     results["numba_compile_s"] = nbts.warm_up()
     log("section 1: single trajectory")

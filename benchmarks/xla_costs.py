@@ -1,6 +1,6 @@
 """What XLA's building blocks cost on this machine: the numbers behind the profile.
 
-benchmarks/NOTES.md explains the two-state model's speed against a Numba loop with the
+docs/benchmark_notes.md explains the two-state model's speed against a Numba loop with the
 price of the operations its vectorised passes are made of. This script measures them,
 side by side (all cases called once in turn per round, medians), in float64:
 

@@ -42,7 +42,7 @@ def default_cache_dir() -> Path:
 def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
     """Keep compiled programs on disk, so that a new process skips their compilation.
 
-    A fit compiles its solver for seconds on a CPU (benchmarks/NOTES.md, "Fits"); with the
+    A fit compiles its solver for seconds on a CPU (docs/benchmark_notes.md, "Fits"); with the
     cache, a later process that runs the same fit (same model, free parameters, data
     shape and solver settings) loads it instead. This is JAX's persistent compilation
     cache (``jax_compilation_cache_dir``); JAX keys it by the program, the JAX version

@@ -121,7 +121,8 @@ def _add_data_options(p) -> None:
     p.add_argument("--quiet", action="store_true", help="print only errors")
 
 
-def main(argv=None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """The ``jaxfric`` argument parser (also used to print the help into the docs)."""
     parser = argparse.ArgumentParser(
         prog="jaxfric",
         description="Differentiable dynamic friction models (SI units: s, m, m/s, N).",
@@ -206,7 +207,13 @@ def main(argv=None) -> int:
                         "difference; 0.01 s for drive-force data u)")
     p.set_defaults(func=_diagnose)
 
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the ``jaxfric`` command with `argv` (default: the process's arguments); returns
+    the exit code (0, 2 for bad input or outputs, 130 interrupted, 143 terminated)."""
+    args = build_parser().parse_args(argv)
     from jaxfric import enable_compilation_cache
     from jaxfric.data import DataError
 
