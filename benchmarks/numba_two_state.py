@@ -6,8 +6,10 @@ one tight ``@numba.njit`` loop over the samples in float64, the memory stack in 
 arrays, no Python objects inside the loop, ``error_model="numpy"`` (no zero-division checks;
 every division is guarded explicitly, as in jaxfric) and no ``fastmath`` (which would
 reorder the float arithmetic and break the < 1e-9 N agreement). It exists to measure jaxfric against
-(``benchmarks/throughput.py``); ``tests/test_numba_baseline.py`` checks that both give the
-same forces to < 1e-9 N.
+(``benchmarks/throughput.py``). ``python benchmarks/numba_two_state.py --check`` checks
+that both give the same forces to < 1e-9 N (and the same overflow counts, and the same
+shape as `jaxfric.PaperShape`), exiting non-zero otherwise; ``tests/test_numba_baseline.py``
+runs it.
 
 Units are SI: t [s], x [m], v [m/s], forces [N], xi [m/N].
 
@@ -340,3 +342,78 @@ def warm_up() -> float:
     simulate_numba_batch(p, np.stack([t, t]), np.stack([x, x]))
     simulate_numba_batch(p, np.stack([t, t]), np.stack([x, x]), np.stack([x, x]))
     return time.perf_counter() - t0
+
+
+# ---- the check against jaxfric ------------------------------------------------------------
+
+
+TOL = 1e-9  # N
+
+
+def _check_motions():
+    """``{name: (t, x, v)}``: the built-in identification motion (nested presliding loops,
+    strokes with small loops at the ends, a varying velocity), and an irregularly sampled
+    mixed motion with its velocity given."""
+    from jaxfric.examples import excitation
+
+    try:  # run as a module of the repository, or as a script from its folder
+        from benchmarks.motions import mixed_path
+    except ImportError:
+        from motions import mixed_path
+
+    t, x = excitation(dt=2e-3)
+    rng = np.random.default_rng(0)
+    t2 = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 4000))
+    _, x2 = mixed_path(4000)
+    x2 = np.interp(t2, 1e-3 * np.arange(4000), x2)
+    return {"excitation": (t, x, None), "irregular, v given": (t2, x2, np.gradient(x2, t2))}
+
+
+def check() -> list[str]:
+    """The baseline against `jaxfric.simulate(paper.two_state(K), ...)`; returns the
+    failures (empty: all agree)."""
+    import warnings
+
+    import jaxfric
+    from jaxfric import paper
+
+    failures = []
+    model = paper.two_state()
+    if params_from_model(model) != paper_params():
+        failures.append("paper_params() differs from params_from_model(paper.two_state())")
+    p = paper_params()
+    xi = np.linspace(0.0, 1.1 * p["l1"], 1201)
+    got = np.array([_pi_gamma(q, *shape_constants(p)) for q in xi])
+    pi, _, gamma = model.shape.pi_kappa_gamma(xi, p["Fs"])
+    for name, a, b in (("Pi", got[:, 0], pi), ("gamma", got[:, 1], gamma)):
+        err = float(np.max(np.abs(a - np.asarray(b))))
+        if not err < 1e-12:
+            failures.append(f"shape {name} differs from jaxfric.PaperShape by {err:.3g}")
+    for name, (t, x, v) in _check_motions().items():
+        for size in (16, 3):  # 3 overflows on purpose: both must drop alike
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", jaxfric.StackOverflowWarning)
+                ref = jaxfric.simulate(paper.two_state(size), t, x, v, full_output=True)
+            force, overflow = simulate_numba(p, t, x, v, size, full_output=True)
+            err = float(np.max(np.abs(force - np.asarray(ref.force))))
+            print(f"{name}, stack {size}: max |F_numba - F_jaxfric| = {err:.3g} N, "
+                  f"overflow {overflow} / {int(ref.overflow)}")
+            if not err < TOL or overflow != int(ref.overflow) or (overflow > 0) != (size == 3):
+                failures.append(f"{name}, stack {size}: error {err:.3g} N, overflow "
+                                f"{overflow} vs {int(ref.overflow)}")
+    t, x, _ = _check_motions()["excitation"]
+    T, X = np.stack([t, t + 1.0, t]), np.stack([x, 0.5 * x, -x + 3e-6])
+    F = simulate_numba_batch(p, T, X)
+    if not all(np.array_equal(F[j], simulate_numba(p, T[j], X[j])) for j in range(3)):
+        failures.append("the prange batch differs from one trajectory at a time")
+    return failures
+
+
+if __name__ == "__main__":
+    import sys
+
+    if sys.argv[1:] != ["--check"]:
+        sys.exit("usage: python benchmarks/numba_two_state.py --check")
+    problems = check()
+    print("\n".join(problems) if problems else "all agree")
+    sys.exit(1 if problems else 0)

@@ -1,6 +1,9 @@
 """Motions and glue shared by the tests."""
 
+import importlib.util
 import itertools
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -87,3 +90,17 @@ def flat_stribeck_two_state(shape=None, C=10.8, stack_size=16):
     p = jaxfric.paper
     st = jaxfric.Stribeck(Fs=26.1, Fc=26.1, Vs=3.1e-3, delta=0.6)
     return TwoState(stribeck=st, shape=shape or p.shape(), sigma2=0.0, C=C, stack_size=stack_size)
+
+
+def load_example(name: str):
+    """The script ``examples/<name>.py`` as a module (the examples are scripts, not a
+    package), loaded once per test process."""
+    key = f"examples_{name}"
+    if key in sys.modules:
+        return sys.modules[key]
+    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(key, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[key] = module  # dataclasses look their module up by name
+    spec.loader.exec_module(module)
+    return module

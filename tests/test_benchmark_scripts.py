@@ -1,15 +1,29 @@
 """The profiling scripts of benchmarks/ run and write what they print (smoke tests on
-short motions; their timings are not checked, performance goals live in the benchmarks)."""
+short motions; their timings are not checked, performance goals live in the benchmarks).
+Each runs as a script, as a user runs it: the tests never import the benchmarks."""
 
 import json
+import subprocess
+import sys
+from pathlib import Path
 
-from benchmarks import fit_compile, profile_two_state
+import pytest
 
 
-def test_profile_two_state_runs_and_writes_json(tmp_path, capsys):
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.slow  # about a minute together: compilation dominates
+
+
+def _run(script: str, *args) -> str:
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *map(str, args)],
+                         capture_output=True, text=True, timeout=900, cwd=ROOT)
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run.stdout
+
+
+def test_profile_two_state_runs_and_writes_json(tmp_path):
     out = tmp_path / "profile.json"
-    profile_two_state.main(["--n", "2000", "--repeats", "1", "--json", str(out)])
-    printed = capsys.readouterr().out
+    printed = _run("profile_two_state.py", "--n", "2000", "--repeats", "1", "--json", out)
     data = json.loads(out.read_text())
     assert data["meta"]["n"] == 2000
     stages = [r["stage"] for r in data["rows"]]
@@ -22,21 +36,19 @@ def test_profile_two_state_runs_and_writes_json(tmp_path, capsys):
     assert rows[-1]["stage_ns_per_sample"] is None
 
 
-def test_profile_two_state_batch_runs(tmp_path, capsys):
+def test_profile_two_state_batch_runs(tmp_path):
     out = tmp_path / "profile_batch.json"
-    profile_two_state.main(["--n", "600", "--batch", "3", "--repeats", "1", "--json", str(out)])
-    printed = capsys.readouterr().out
+    printed = _run("profile_two_state.py", "--n", "600", "--batch", "3", "--repeats", "1",
+                   "--json", out)
     data = json.loads(out.read_text())
     assert data["meta"]["batch"] == 3 and "ns/traj-step" in printed
     assert len(data["rows"]) == 6  # the stages; no jacfwd row for a batch
 
 
-def test_fit_compile_runs_and_writes_json(tmp_path, capsys):
+def test_fit_compile_runs_and_writes_json(tmp_path):
     out = tmp_path / "compile.json"
-    fit_compile.main(["--n", "2000", "--batch", "2", "--json", str(out)])
-    printed = capsys.readouterr().out
-    data = json.loads(out.read_text())
-    calls = data["calls"]
+    printed = _run("fit_compile.py", "--n", "2000", "--batch", "2", "--json", out)
+    calls = json.loads(out.read_text())["calls"]
     assert len(calls) == 3 and all(name in printed for name in calls)
     assert all(c["wall_s"] > 0 and c["compilations"] >= 0 for c in calls.values())
     # The second, identical fit reuses everything the first one compiled.
@@ -44,13 +56,19 @@ def test_fit_compile_runs_and_writes_json(tmp_path, capsys):
     assert again["compilations"] == 0, again["events"]
 
 
-def test_xla_costs_runs_and_writes_json(tmp_path, capsys):
-    from benchmarks import xla_costs
-
+def test_xla_costs_runs_and_writes_json(tmp_path):
     out = tmp_path / "costs.json"
-    xla_costs.main(["--n", "3000", "--repeats", "1", "--json", str(out)])
+    printed = _run("xla_costs.py", "--n", "3000", "--repeats", "1", "--json", out)
     data = json.loads(out.read_text())
     assert len(data["rows"]) == 8 and all(r["value"] > 0 for r in data["rows"])
     ev = data["event_pass"]
     assert 0 < ev["reversals"] <= ev["events"] < ev["iterations"]
-    assert "us per iteration" in capsys.readouterr().out
+    assert "us per iteration" in printed
+
+
+def test_diagnosis_bench_runs_and_writes_json(tmp_path):
+    out = tmp_path / "bench.json"
+    printed = _run("diagnosis_bench.py", "--quick", "--only", "offset", "--json", out)
+    data = json.loads(out.read_text())
+    assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
+    assert "confusion" in printed and data["summary"]["singles"] == 1

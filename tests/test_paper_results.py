@@ -1,5 +1,5 @@
 """The paper's simulation results (Figs. 5-8) and the Table 4 analogue, checked on the same
-functions that draw the figures (benchmarks/paper_figures.py, benchmarks/feedforward.py).
+functions that draw the figures (examples/paper_figures.py, examples/feedforward.py).
 
 Shorter runs than the scripts where that keeps the point (fewer oscillation periods).
 """
@@ -7,8 +7,12 @@ Shorter runs than the scripts where that keeps the point (fewer oscillation peri
 import numpy as np
 import pytest
 
-from benchmarks import feedforward as ff, paper_figures as pf
 from jaxfric import paper
+
+from .helpers import load_example
+
+
+ff, pf = load_example("feedforward"), load_example("paper_figures")
 
 
 UM = 1e-6

@@ -6,10 +6,7 @@ dominates); the checks on that result are one test, so that pytest-xdist cannot 
 fits once per worker.
 """
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
@@ -17,18 +14,10 @@ import pytest
 
 import jaxfric
 
-
-def _load_example(name: str):
-    """The script ``examples/<name>.py`` as a module (examples are not a package)."""
-    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"examples_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up by name
-    spec.loader.exec_module(module)
-    return module
+from .helpers import load_example
 
 
-tb = _load_example("tribometer")
+tb = load_example("tribometer")
 
 
 def test_missing_file_exits_with_a_message(tmp_path, capsys):

@@ -27,7 +27,7 @@ kappa(0) ~ 4.3e6 N/m with m = 1 kg gives omega ~ 2.1e3 rad/s, and dt = 20 us giv
 omega*dt ~ 0.04 (symplectic Euler is stable below 2; halving dt changes the positions by
 less than 0.3 um on a 2 mm slide).
 
-Run ``python benchmarks/paper_figures.py [--out docs/figures] [--json OUT.json]``.
+Run ``python examples/paper_figures.py [--out docs/figures] [--json OUT.json]``.
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ simulates one:
   maximum of ``|r - x|`` (true position, not the noisy measurement) is taken over the second
   period, after the start-up transient.
 
-Run ``python benchmarks/feedforward.py --json OUT.json [--out DIR]``.
+Run ``python examples/feedforward.py --json OUT.json [--out DIR]``.
 """
 
 from __future__ import annotations
