@@ -85,6 +85,24 @@ def ref_kwargs(model):
     return kw
 
 
+def strokes_with_loops(n=1500, seed=0):
+    """Presliding loops (60 um) riding on strokes at several speeds (1.5 mm, slowly
+    modulated), irregularly sampled at 2-6 ms: ``(t, x)``, s and m."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(2e-3, 6e-3, n))
+    x = (60e-6 * np.sin(2 * np.pi * t / 1.5)
+         + 1.5e-3 * np.sin(2 * np.pi * t / 4.0) * np.sin(2 * np.pi * t / 9.0))
+    return t, x
+
+
+def power_two_state():
+    """The paper's two-state model with a `PowerShape` presliding curve (n = 2.5)."""
+    from jaxfric import paper
+
+    return TwoState(stribeck=paper.stribeck(), shape=PowerShape(l1=4e-6, n=2.5),
+                    sigma2=paper.SIGMA2, C=paper.C)
+
+
 def flat_stribeck_two_state(shape=None, C=10.8, stack_size=16):
     """Paper model with Fc = Fs: |s| is constant, so Masing's rules hold exactly."""
     p = jaxfric.paper

@@ -13,6 +13,8 @@ import fitting
 import jaxfric
 from jaxfric import paper
 
+from .helpers import strokes_with_loops
+
 
 UM = 1e-6
 
@@ -46,10 +48,9 @@ def _write(path, header, columns):
 
 def _synthetic(model, noise, seed=0, n=1500):
     """Presliding loops and strokes at several speeds, irregularly sampled."""
+    t, x = strokes_with_loops(n, seed)
     rng = np.random.default_rng(seed)
-    t = np.cumsum(rng.uniform(2e-3, 6e-3, n))
-    x = (60 * UM * np.sin(2 * np.pi * t / 1.5) + 1.5e-3 * np.sin(2 * np.pi * t / 4.0)
-         * np.sin(2 * np.pi * t / 9.0))
+    rng.uniform(size=n)  # the draws the motion took: the noise stays as it was
     F = np.asarray(jaxfric.simulate(model, t, x)) + noise * rng.normal(size=n)
     return t, x, F
 
@@ -234,6 +235,8 @@ def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):
     assert r.returncode == 2 and "missing.json: no such file" in r.stderr
 
 
+# Slow (about 100 s under the other tests): the whole demo, fit + diagnosis + report.
+@pytest.mark.slow
 def test_demo_writes_the_report(tmp_path):
     """The newcomer's first command: the report exists, its figures are not empty, and the
     hidden effect of the built-in data is the one found."""

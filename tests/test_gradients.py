@@ -16,7 +16,7 @@ import jaxfric
 from jaxfric import paper
 
 from . import reference as ref
-from .helpers import ref_kwargs
+from .helpers import power_two_state, ref_kwargs
 
 
 UM = 1e-6
@@ -93,15 +93,6 @@ WINDOWS = {
 }
 
 
-def _power_two_state():
-    return jaxfric.TwoState(
-        stribeck=paper.stribeck(),
-        shape=jaxfric.PowerShape(l1=4e-6, n=2.5),
-        sigma2=paper.SIGMA2,
-        C=paper.C,
-    )
-
-
 def _gms_from_power_shape():
     # A concave shape: every element has k_i > 0 and nu_i > 0 (the paper shape's clipped
     # top would give k_1 = nu_1 = 0, a parameter that cannot matter).
@@ -112,7 +103,7 @@ def _gms_from_power_shape():
 
 MODELS = {
     "two_state_paper": paper.two_state,
-    "two_state_power": _power_two_state,
+    "two_state_power": power_two_state,
     "gms5": paper.gms5,
     "gms_from_shape": _gms_from_power_shape,
     "lugre": paper.lugre,

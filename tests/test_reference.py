@@ -9,7 +9,7 @@ import jaxfric
 from jaxfric import paper
 
 from . import reference as ref
-from .helpers import nested_path, ref_kwargs, sine_path, strokes_path
+from .helpers import nested_path, power_two_state, ref_kwargs, sine_path, strokes_path
 
 
 TOL = 1e-6  # N
@@ -26,18 +26,9 @@ def _reference(model, t, x, v=None):
     return ref.tustin(t, x, v, **kw)
 
 
-def _power_two_state():
-    return jaxfric.TwoState(
-        stribeck=paper.stribeck(),
-        shape=jaxfric.PowerShape(l1=4e-6, n=2.5),
-        sigma2=paper.SIGMA2,
-        C=paper.C,
-    )
-
-
 MODELS = {
     "two_state": paper.two_state,
-    "two_state_power": _power_two_state,
+    "two_state_power": power_two_state,
     "gms5": paper.gms5,
     "gms10": paper.gms10,
     "gms50_from_shape": lambda: paper.gms(50),

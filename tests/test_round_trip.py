@@ -13,12 +13,13 @@ import jaxfric
 from jaxfric import effects as fx, paper
 from jaxfric.examples import hidden_effect_measurement
 
+from .helpers import strokes_with_loops
+
 
 def _measurement(tmp_path, model, n=1500, seed=0):
-    rng = np.random.default_rng(seed)
-    t = np.cumsum(rng.uniform(2e-3, 6e-3, n))
-    x = 60e-6 * np.sin(2 * np.pi * t / 1.5) + 1.5e-3 * np.sin(2 * np.pi * t / 4.0)
-    F = np.asarray(jaxfric.simulate(model, t, x)) + 0.02 * rng.normal(size=n)
+    t, x = strokes_with_loops(n, seed)
+    F = np.asarray(jaxfric.simulate(model, t, x))
+    F = F + 0.02 * np.random.default_rng(seed + 1).normal(size=n)
     path = tmp_path / "m.csv"
     np.savetxt(path, np.column_stack([t, x, F]), delimiter=",", header="t,x,F", comments="")
     return path, t, x, F

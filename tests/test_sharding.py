@@ -8,6 +8,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 
 SCRIPT = textwrap.dedent('''
     import jax, numpy as np
@@ -43,6 +45,8 @@ SCRIPT = textwrap.dedent('''
 ''')
 
 
+# Slow (about 25 s): a subprocess with four simulated devices compiles everything again.
+@pytest.mark.slow
 def test_sharded_batch_fit_and_monte_carlo_match_one_device():
     env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4")
     r = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True,

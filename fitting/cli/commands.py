@@ -203,7 +203,7 @@ def run_simulate(args) -> int:
     header = ",".join(f"{k}[{u}]" for k, u in zip(cols, ["s", "m", "m/s", "N", "N"]))
     with atomic_file(target) as f:
         np.savetxt(f, np.column_stack(list(cols.values())), delimiter=",", header=header,
-                   comments="", fmt="%.10g")
+                   comments="", fmt="%.17g")
     log(f"{len(m)} samples written to {target} (columns {header})")
     if int(out.overflow) > 0:
         print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
