@@ -232,7 +232,7 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
     # Stribeck curve, say), a poor start for the refit: also refit from the starting model
     # with the effects, and keep the better training fit.
     effects = tuple(getattr(state.current, "effects", ()))
-    plain = ctx.model.base if isinstance(ctx.model, fx.WithEffects) else ctx.model
+    plain = ctx.model.without_effects()
     fresh, fresh_resid = ctx.step(plain + (*effects, *new_effects),
                                   [*state.added, *names_new], restart=True)
     if float(fresh.fit.rmse) < float(trial.fit.rmse):

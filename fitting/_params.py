@@ -230,15 +230,13 @@ def as_float_arrays(model):
 
 
 def two_state_part(model):
-    """``get`` with ``get(model)`` the `jaxfric.TwoState` inside `model` (the model itself,
-    or the base of a model with effects), or ``None`` if there is none."""
-    from jaxfric.effects import WithEffects
-
-    if isinstance(model, jaxfric.TwoState):
-        return lambda m: m
-    if isinstance(model, WithEffects) and isinstance(model.base, jaxfric.TwoState):
-        return lambda m: m.base
-    return None
+    """``get`` with ``get(model)`` the friction model inside `model` that has a presliding
+    `shape` (the model itself, or the base of a model with effects), or ``None`` if there
+    is none."""
+    base = model.without_effects()
+    if not isinstance(getattr(base, "shape", None), jaxfric.AbstractShape):
+        return None
+    return (lambda m: m) if base is model else (lambda m: m.without_effects())
 
 
 def to_fit_representation(model, reparameterize: bool = True):

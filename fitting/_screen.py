@@ -64,7 +64,7 @@ def _consistency(ref, new, test, blocks) -> tuple[float, int]:
 def _base_signals(model, t, x, v):
     """The signals effects are built from (`_signals`), at the force of `model` without
     its added effects."""
-    base_model = model.base if isinstance(model, fx.WithEffects) else model
+    base_model = model.without_effects()
     base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
     return _signals(t, x, v, base_force,
                     np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))

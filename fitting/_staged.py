@@ -282,8 +282,7 @@ def fit_staged(
     # The stages hand the model on in the fit representation (a `NormalizedPaperShape` for
     # a `PaperShape`): a round trip through the paper's symbols is singular where the
     # exponential is straight (curvature 0: a -> inf).
-    paper_shape = isinstance(model, jaxfric.TwoState) and isinstance(model.shape,
-                                                                      jaxfric.PaperShape)
+    paper_shape = isinstance(getattr(model, "shape", None), jaxfric.PaperShape)
     current = _params.to_fit_representation(model)
     current = eqx.tree_at(lambda m: (m.stribeck, m.sigma2), current,
                           (tustin.stribeck, tustin.sigma2))
@@ -303,7 +302,7 @@ def fit_staged(
     joint_free = ["stribeck", "sigma2"]
     names = _names_with_role(current, "presliding")
     if "presliding" in checked and names:
-        if estimate_l1 and isinstance(current, jaxfric.TwoState):
+        if estimate_l1 and hasattr(current, "shape"):  # a presliding curve with l1
             l1 = _estimate_l1(current, checked["presliding"])
             if l1 is not None:
                 current = eqx.tree_at(lambda m: m.shape.l1, current, jnp.asarray(l1))

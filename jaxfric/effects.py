@@ -376,6 +376,9 @@ class WithEffects(AbstractFrictionModel):
     def __add__(self, other):
         return WithEffects(self.base, self.effects + _as_effects(other))
 
+    def without_effects(self) -> AbstractFrictionModel:
+        return self.base
+
 
 def _as_effects(other) -> tuple[AbstractEffect, ...]:
     items = other if isinstance(other, tuple | list) else (other,)

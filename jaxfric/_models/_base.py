@@ -69,6 +69,11 @@ class AbstractFrictionModel(eqx.Module):
             model = add_to(model)
         return model
 
+    def without_effects(self) -> "AbstractFrictionModel":
+        """The friction model itself, without added effects (`jaxfric.effects`): this
+        model, or the base of a model with effects."""
+        return self
+
     def _simulate(self, motion: Motion) -> SimResult:
         state = self.init_state(motion.x[0])
 
