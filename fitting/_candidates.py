@@ -45,6 +45,8 @@ def _grid(name, t, x, v, F):
         return [fx.FrictionLag(lag_gain=1.0, tau=tau) for tau in taus]
     if name == "position_dependence":
         return [fx.PositionDependence.for_travel(x, pos_1=1.0, pos_2=1.0)]
+    if name == "position_load":
+        return [fx.PositionLoad.for_travel(x, load_1=1.0, load_2=1.0)]
     cls = fx.EFFECTS[name]
     return [cls()]
 
@@ -55,6 +57,7 @@ _LINEAR = {
     "viscous": ("c_visc",), "quadratic_drag": ("c_drag",), "stribeck": ("dF_str",),
     "inertia": ("mass",), "offset": ("offset",), "asymmetry": ("asym",),
     "cogging": ("cog_sin", "cog_cos"), "position_dependence": ("pos_1", "pos_2"),
+    "position_load": ("load_1", "load_2"),
     "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
 }
 

@@ -18,6 +18,7 @@ Memoryless effects:
 | `asymmetry` | ``asym * abs(F_base)`` | asym (1) |
 | `cogging` | ``cog_sin sin(2 pi x/P) + cog_cos cos(...)`` | cog_sin N, cog_cos N, P m |
 | `position_dependence` | ``F_base * (pos_1 u + pos_2 u^2)`` | pos_1, pos_2 (1) |
+| `position_load` | ``load_1 u + load_2 (u^2 - 1/3)`` | load_1 N, load_2 N |
 | `drift` | ``F_base * drift_rate * (t - t_0)`` | drift_rate 1/s |
 
 ``a`` is the backward difference of ``v`` (the same in `simulate` and `step`), ``u`` the
@@ -211,6 +212,34 @@ class PositionDependence(AbstractEffect):
                 f"(linear) and {100 * float(self.pos_2):+.3g} % (quadratic) at the ends")
 
 
+class PositionLoad(AbstractEffect):
+    """``load_1 u + load_2 (u^2 - 1/3)`` (N): a force that depends on the position but not on
+    the friction level, added to it (gravity along an inclined or curved guide, a cable or
+    spring load, a counterweight). ``u = (x - x_mid) / x_half`` in [-1, 1] over the travel,
+    as for `PositionDependence` (`for_travel`); the quadratic part has no mean over the
+    travel, so that it does not stand in for an `Offset`."""
+
+    name: ClassVar[str] = "position_load"
+    load_1: Array = param("N", default=0.0)
+    load_2: Array = param("N", default=0.0)
+    x_mid: float = eqx.field(static=True, default=0.0)
+    x_half: float = eqx.field(static=True, default=1.0)
+
+    @classmethod
+    def for_travel(cls, x: ArrayLike, **params) -> "PositionLoad":
+        x = jnp.asarray(x)
+        lo, hi = float(jnp.min(x)), float(jnp.max(x))
+        return cls(x_mid=0.5 * (lo + hi), x_half=max(0.5 * (hi - lo), 1e-12), **params)
+
+    def term(self, s):
+        u = (s.x - self.x_mid) / self.x_half
+        return self.load_1 * u + self.load_2 * (u**2 - 1.0 / 3.0)
+
+    def describe(self):
+        return (f"position-dependent load {float(self.load_1):+.4g} N (linear) and "
+                f"{float(self.load_2):+.4g} N (quadratic) at the ends of the travel")
+
+
 class Drift(AbstractEffect):
     """``F_base * drift_rate * (t - t0)``: the friction level changing slowly over time
     (warm-up, wear), 1/s."""
@@ -300,7 +329,7 @@ class FrictionLag(AbstractEffect):
 EFFECTS: dict[str, type[AbstractEffect]] = {
     cls.name: cls
     for cls in (Viscous, QuadraticDrag, StribeckHump, Presliding, FrictionLag, Inertia, Offset,
-                Asymmetry, Cogging, PositionDependence, Drift)
+                Asymmetry, Cogging, PositionDependence, PositionLoad, Drift)
 }
 
 

@@ -48,6 +48,7 @@ def _numpy_terms(t, x, base):
         "asymmetry": 0.05 * np.abs(base),
         "cogging": 0.4 * np.sin(2 * np.pi * x / 1.3e-3) - 0.2 * np.cos(2 * np.pi * x / 1.3e-3),
         "position_dependence": base * (0.1 * u - 0.05 * u**2),
+        "position_load": 0.7 * u - 0.3 * (u**2 - 1 / 3),
         "drift": base * 1e-3 * (t - t[0]),
     }
 
@@ -64,6 +65,7 @@ def _effects(x):
         "asymmetry": fx.Asymmetry(asym=0.05),
         "cogging": fx.Cogging(cog_sin=0.4, cog_cos=-0.2, period=1.3e-3),
         "position_dependence": fx.PositionDependence.for_travel(x, pos_1=0.1, pos_2=-0.05),
+        "position_load": fx.PositionLoad.for_travel(x, load_1=0.7, load_2=-0.3),
         "drift": fx.Drift(drift_rate=1e-3),
     }
 
