@@ -11,14 +11,16 @@ fitted (a two-state model with the paper's presliding shape):
   (``two_state_power``);
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
   and the hidden effects are computed there, from the fine grid's own central-difference
-  velocity and acceleration, with formulas written here (not `jaxfric.effects`);
+  velocity and acceleration, with formulas written in `jaxfric.synthetic` (not
+  `jaxfric.effects`);
 - **sensors**: the position is sampled and quantised to a 0.05 um encoder; the force gets
   white noise (two levels); two sampling intervals; the file holds t, x, F only, so the
   diagnosis derives the velocity itself;
 - **hidden effects**: one at a time (regime-confined ones included: a drag that matters
   only at high speed, an asymmetry in one direction only, an acceleration (mass) term,
   a two-harmonic position ripple, a warm-up drift, an offset, a friction level that
-  changes along the travel, a Stribeck hump, a friction lag), pairs, and clean files.
+  changes along the travel, a spring-like load along the travel, a Stribeck hump, a
+  friction lag), pairs, and clean files.
 
 For each file the bench records which effect the diagnosis added first and all it added,
 and the RMSE before and after. The summary prints a confusion table (hidden -> named
@@ -26,8 +28,9 @@ first), the share of single-effect files whose effect was named first, of pairs 
 found, the number of effects added on clean files, and the share of the excess error over
 the clean file removed when the effect was found (targets: >= 90 %, >= 80 %, 0, >= 50 %).
 JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or --json).
-The full bench (3 truths x 2 noise levels x 2 rates x 13 files) takes hours on two cores;
-``--quick`` runs one truth, one noise level and one rate (13 files).
+The full bench (3 truths x 2 noise levels x 2 rates x 14 files) takes hours on two cores;
+``--quick`` runs one truth, one noise level and one rate (14 files). The files are made by
+`jaxfric.synthetic.measurement`.
 """
 
 import argparse
@@ -41,103 +44,24 @@ from pathlib import Path
 
 import numpy as np
 
+from jaxfric.synthetic import HIDDEN, measurement, TRUTHS
+
 
 HERE = Path(__file__).resolve().parent
-FINE = 10  # the truth runs on a grid this many times finer than the sampling
-ENCODER = 0.05e-6  # m per count
-SINGLES = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
-           "position_dependence", "stribeck", "friction_lag")
+SINGLES = HIDDEN
 PAIRS = (("asymmetry", "position_dependence"), ("inertia", "cogging"),
          ("quadratic_drag", "drift"))
-TRUTHS = ("gms_power", "lugre", "two_state_power")
 NOISES = (0.03, 0.08)  # N
 RATES = (1e-2, 5e-3)  # s
-
-
-def _truth(name: str):
-    import jaxfric
-
-    if name == "gms_power":
-        stribeck = jaxfric.Stribeck(Fs=30.0, Fc=22.0, Vs=4e-3, delta=2.0)
-        shape = jaxfric.PowerShape(l1=4e-6, n=2.5)
-        return jaxfric.GMS.from_shape(shape, stribeck, sigma2=80.0, C=15.0, n=60)
-    if name == "lugre":
-        stribeck = jaxfric.Stribeck(Fs=26.0, Fc=20.0, Vs=3e-3, delta=1.2)
-        return jaxfric.LuGre(stribeck=stribeck, sigma0=2e6, sigma1=2.0 * 2e6**0.5, sigma2=60.0)
-    if name == "two_state_power":
-        from jaxfric.examples import diagnosis_truth
-
-        return diagnosis_truth()
-    raise ValueError(name)
-
-
-def _central(t, y):
-    return np.gradient(y, t)
-
-
-def _hidden(name: str, t, x, v, a, base, level):
-    """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
-    level (N) of the truth, `base` its force."""
-    travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
-    if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
-        excess = np.maximum(np.abs(v) - 5e-3, 0.0)
-        return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
-    if name == "asymmetry":  # 6 % more friction moving toward +x only
-        return 0.06 * level * (v > 0)
-    if name == "inertia":  # a mass error: 2 N at the typical acceleration
-        typical = np.median(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()])
-        return 2.0 / typical * a
-    if name == "cogging":  # two harmonics of a 1.3 mm pitch
-        phase = 2 * np.pi * x / 1.3e-3
-        return 0.5 * np.sin(phase + 0.4) + 0.2 * np.sin(2 * phase + 1.1)
-    if name == "drift":  # warm-up: the friction level rises 6 % with a 40 s time constant
-        return 0.06 * base * (1 - np.exp(-(t - t[0]) / 40.0))
-    if name == "offset":
-        return np.full_like(t, 0.8)
-    if name == "position_dependence":  # level +-5 % at the ends of the travel, quadratic
-        u = (x - travel_mid) / travel_half
-        return base * (0.04 * u + 0.03 * (u**2 - 1 / 3))
-    if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
-        return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
-    if name == "friction_lag":  # 35 % of the level follows speed changes with tau = 0.6 s
-        target = 0.35 * np.abs(base)
-        y = np.empty_like(target)
-        y[0] = target[0]
-        alpha = 1 - np.exp(-np.diff(t) / 0.6)
-        for i in range(1, t.size):
-            y[i] = y[i - 1] + alpha[i - 1] * (target[i] - y[i - 1])
-        return np.sign(v) * (y - target)
-    raise ValueError(name)
-
-
-def make_file(truth: str, hidden: tuple[str, ...], noise: float, dt: float, seed: int):
-    """``(t, x, F)`` as a sensor would record them: see the module docstring."""
-    import jaxfric
-    from jaxfric.examples import diagnosis_motion
-
-    t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
-    model = _truth(truth)
-    v = _central(t_fine, x_fine)
-    a = _central(t_fine, v)
-    base = np.asarray(jaxfric.simulate(model, t_fine, x_fine, v))
-    level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
-    force = base + sum((_hidden(h, t_fine, x_fine, v, a, base, level) for h in hidden),
-                       np.zeros_like(base))
-    keep = slice(0, None, FINE)
-    rng = np.random.default_rng(1000 + seed)
-    t = t_fine[keep]
-    x = np.round(x_fine[keep] / ENCODER) * ENCODER
-    F = force[keep] + noise * rng.standard_normal(t.size)
-    return t, x, F
 
 
 def run_case(case: dict) -> dict:
     import fitting
 
     t0 = time.perf_counter()
-    t, x, F = make_file(case["truth"], tuple(case["hidden"]), case["noise"], case["dt"],
-                        case["seed"])
-    start = fitting.initial_model("two-state", t, x, F)
+    t, x, F = measurement(case["truth"], tuple(case["hidden"]), case["noise"], case["dt"],
+                          case["seed"])
+    start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
     d = fitting.diagnose(start, t, x, F, model_name="two-state")
     ranked = [c.name for c in sorted(d.candidates, key=lambda c: -c.score)]
     return {**case, "samples": int(t.size), "added": list(d.final.added),

@@ -1,0 +1,108 @@
+"""Synthetic measurements made the way a sensor records them, from truths that are NOT the
+models jaxfric fits: the data of `benchmarks/diagnosis_bench.py` and of the diagnosis's slow
+tests from other truths.
+
+- **truths** (`truth`): a 60-element GMS whose virgin curve is another family (a power law)
+  with its own Stribeck curve (``gms_power``); a LuGre model with stiff bristles
+  (``lugre``); a two-state model with a `PowerShape` presliding curve
+  (``two_state_power``);
+- **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
+  with the fine grid's own central-difference velocity, and the hidden effects are computed
+  there with formulas written here (`hidden_force`), not with `jaxfric.effects`;
+- **sensors** (`measurement`): the position is sampled and quantised to a 0.05 um encoder,
+  the force gets white noise; the file holds t, x, F only, so whoever fits it has to
+  derive the velocity.
+"""
+
+import numpy as np
+
+
+FINE = 10  # the truth runs on a grid this many times finer than the sampling
+ENCODER = 0.05e-6  # m per count
+TRUTHS = ("gms_power", "lugre", "two_state_power")
+HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
+          "position_dependence", "position_load", "stribeck", "friction_lag")
+
+
+def truth(name: str):
+    """The true model `name` (one of `TRUTHS`)."""
+    from . import GMS, LuGre, PowerShape, Stribeck
+
+    if name == "gms_power":
+        stribeck = Stribeck(Fs=30.0, Fc=22.0, Vs=4e-3, delta=2.0)
+        shape = PowerShape(l1=4e-6, n=2.5)
+        return GMS.from_shape(shape, stribeck, sigma2=80.0, C=15.0, n=60)
+    if name == "lugre":
+        stribeck = Stribeck(Fs=26.0, Fc=20.0, Vs=3e-3, delta=1.2)
+        return LuGre(stribeck=stribeck, sigma0=2e6, sigma1=2.0 * 2e6**0.5, sigma2=60.0)
+    if name == "two_state_power":
+        from .examples import diagnosis_truth
+
+        return diagnosis_truth()
+    raise ValueError(name)
+
+
+def _central(t, y):
+    return np.gradient(y, t)
+
+
+def hidden_force(name: str, t, x, v, a, base, level):
+    """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
+    level (N) of the truth, `base` its force."""
+    travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
+    if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
+        excess = np.maximum(np.abs(v) - 5e-3, 0.0)
+        return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
+    if name == "asymmetry":  # 6 % more friction moving toward +x only
+        return 0.06 * level * (v > 0)
+    if name == "inertia":  # a mass error: 2 N at the typical acceleration
+        typical = np.median(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()])
+        return 2.0 / typical * a
+    if name == "cogging":  # two harmonics of a 1.3 mm pitch
+        phase = 2 * np.pi * x / 1.3e-3
+        return 0.5 * np.sin(phase + 0.4) + 0.2 * np.sin(2 * phase + 1.1)
+    if name == "drift":  # warm-up: the friction level rises 6 % with a 40 s time constant
+        return 0.06 * base * (1 - np.exp(-(t - t[0]) / 40.0))
+    if name == "offset":
+        return np.full_like(t, 0.8)
+    if name == "position_dependence":  # level +-5 % at the ends of the travel, quadratic
+        u = (x - travel_mid) / travel_half
+        return base * (0.04 * u + 0.03 * (u**2 - 1 / 3))
+    if name == "position_load":  # a spring-like load along the travel, +-0.9 N at the ends
+        u = (x - travel_mid) / travel_half
+        return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
+    if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
+        return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
+    if name == "friction_lag":  # 35 % of the level follows speed changes with tau = 0.6 s
+        target = 0.35 * np.abs(base)
+        y = np.empty_like(target)
+        y[0] = target[0]
+        alpha = 1 - np.exp(-np.diff(t) / 0.6)
+        for i in range(1, t.size):
+            y[i] = y[i - 1] + alpha[i - 1] * (target[i] - y[i - 1])
+        return np.sign(v) * (y - target)
+    raise ValueError(name)
+
+
+def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
+                dt: float = 1e-2, seed: int = 0):
+    """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
+    `seed` through truth `truth_name` plus the `hidden` effects, sampled every `dt`, the
+    position quantised to `ENCODER`, the force with `noise` N of white noise."""
+    from . import simulate
+    from .examples import diagnosis_motion
+
+    t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
+    model = truth(truth_name)
+    v = _central(t_fine, x_fine)
+    a = _central(t_fine, v)
+    base = np.asarray(simulate(model, t_fine, x_fine, v))
+    level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
+    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level) for h in hidden),
+                       np.zeros_like(base))
+    keep = slice(0, None, FINE)
+    rng = np.random.default_rng(1000 + seed)
+    t = t_fine[keep]
+    x = np.round(x_fine[keep] / ENCODER) * ENCODER
+    F = force[keep] + noise * rng.standard_normal(t.size)
+    return t, x, F
