@@ -54,6 +54,10 @@ properties pytree beside the model, never inside it.
 
 - `Dataset(t, x, F, v=None, weights=None)`; `constant_velocity_segments(t, x, F, v=None)`
   -> `Segments`; `initial_stribeck(segments)`.
+- `estimate_velocity(t, x, method="central")`: the velocity a fit of measured data should
+  use (zero phase: ``"central"`` or ``"savgol"``; ``"backward"`` is what `jaxfric.simulate`
+  derives by itself); `fit(..., v=estimate_velocity(t, x))`. `diagnose` does this itself
+  (`derivatives=`).
 
 Example::
 
@@ -86,6 +90,7 @@ from jaxfric import NormalizedPaperShape as NormalizedPaperShape
 
 from ._candidates import Candidate as Candidate
 from ._data import Dataset as Dataset
+from ._derivatives import estimate_velocity as estimate_velocity
 from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
 from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult

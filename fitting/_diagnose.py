@@ -1,9 +1,11 @@
 """Diagnosis: where a fitted model fails, which physical effect is missing, and the error
 falling as effects are added.
 
-**Ranking effects** (`diagnose`). The data are cut into `blocks` contiguous time blocks;
-every third block is held out, the rest is the training set (interleaved, so that a slow
-drift or a position dependence is seen in both). The model is fitted on the training set.
+**Ranking effects** (`diagnose`). The velocity is estimated from the position with a
+zero-phase difference (`derivatives`, `fitting._derivatives`) unless given. The data are cut
+into `blocks` contiguous time blocks; every third block is held out, the rest is the
+training set (interleaved, so that a slow drift or a position dependence is seen in both).
+The model is fitted on the training set (restarted while that still helps, see `_step`).
 Then, for every candidate effect of `jaxfric.effects`:
 
 1. its nonlinear parameters (cogging period, Stribeck velocity, presliding stiffness, lag
@@ -15,11 +17,15 @@ Then, for every candidate effect of `jaxfric.effects`:
 2. the **score** is the fraction of the held-out residual sum of squares that this step
    removes beyond the same step without the effect (a flexible term that only fits noise
    removes nothing from held-out data);
-3. it is **significant** when the score is at least `min_score` and the held-out
-   improvement is consistent across held-out blocks: the ``t`` statistic of the share of
-   each held-out block's SSE that it removes is at least `min_t`. With two effects
-   missing, each one's screen sees the other as noise; so the leading candidates (score
-   at least `min_score`, at most three) are also regressed together, and one whose
+3. it is **significant** when the score is at least `min_score` and the held-out gain is
+   consistent where the effect acts (`fitting._evidence`): on the held-out samples where
+   the effect changes the residual, the per-sample gain in squared residual, in batches
+   longer than its autocorrelation, has a batch-means ``t`` of at least `min_t`. An
+   effect confined to one regime (a drag at high speed, friction in one direction) is
+   judged where it acts, not diluted by the samples it leaves alone; a term that fits
+   smooth model mismatch gets long batches, few of them, and a small ``t``. With two
+   effects missing, each one's screen sees the other as noise; so the leading candidates
+   (score at least `min_score`, at most three) are also regressed together, and one whose
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
@@ -33,7 +39,13 @@ held-out RMSE after each addition is reported; an addition whose refit removes l
 significant candidate is tried. When nothing is significant but the best score is at least
 ``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
 that candidate is tried too, and kept only if the refit's held-out improvement is
-consistent block by block (``t`` at least `min_t`).
+consistent where it acts (``t`` at least `min_t`). A candidate tried and not added says why
+in its evidence.
+
+After the last step the baseline and final models are checked for plausibility
+(`fitting._plausibility`: presliding range against the strokes, lag time against their
+duration, prediction against the model's own steady state); the warnings are in
+`Diagnosis.warnings`, the summary and the JSON.
 
 When no single effect holds up, two missing effects may each be hiding the other (each
 one's screen fits the other's residual with the wrong term). Every pair of candidates is
@@ -52,14 +64,16 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from jaxfric import effects as fx
-from jaxfric.motion import velocity
 
 from . import _params
 from ._candidates import _code, Candidate
+from ._derivatives import describe, estimate_velocity
+from ._evidence import evidence
 from ._fit import fit
+from ._plausibility import plausibility
 from ._regimes import holdout_mask, regime_errors, regimes
 from ._result import FitResult, saved_model
-from ._screen import _base_jacobian, _consistency, _joint_check, _pair_screen, _screen
+from ._screen import _base_jacobian, _joint_check, _pair_screen, _screen
 
 
 @dataclasses.dataclass
@@ -86,6 +100,9 @@ class Diagnosis:
     holdout: np.ndarray
     model: object
     model_name: str
+    velocity: str = ""  # how the velocity was obtained (`fitting._derivatives.describe`)
+    #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
+    warnings: dict = dataclasses.field(default_factory=dict)
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -108,13 +125,18 @@ class Diagnosis:
                       "regimes": self.final.regimes,
                       "steps": [{"added": s.added, "rmse": s.rmse,
                                  "rmse_holdout": s.rmse_holdout} for s in self.steps]},
+            "velocity": self.velocity,
+            "warnings": self.warnings,
             "fitted_model": saved_model(self.model),
         }
 
     def summary(self) -> str:
         lines = [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
                  f"(held out {self.baseline.rmse_holdout:.4g} N, "
-                 f"{100 * self.baseline.rel_error:.3g} % of the RMS force)", "candidate effects:"]
+                 f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
+        if self.velocity:
+            lines.append(f"velocity: {self.velocity}")
+        lines.append("candidate effects:")
         for c in self.candidates:
             mark = "*" if c.significant else " "
             lines.append(f" {mark} {c.name:<20} score {c.score:7.3f}  t {c.t_stat:6.1f}  "
@@ -125,6 +147,8 @@ class Diagnosis:
                          f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
         if not self.steps:
             lines.append("nothing significant to add")
+        for which, flags in self.warnings.items():
+            lines += [f"warning ({which} model): {flag}" for flag in flags]
         return "\n".join(lines)
 
 
@@ -173,8 +197,8 @@ class _Context:
     model: object
     t: np.ndarray
     x: np.ndarray
-    v: np.ndarray | None  # as given (None: the simulation's own backward difference)
-    v_arr: np.ndarray  # the velocity the screens use
+    v: np.ndarray  # the velocity every fit and screen uses (m/s)
+    v_arr: np.ndarray  # the same
     F: np.ndarray
     train: np.ndarray
     test: np.ndarray
@@ -185,6 +209,7 @@ class _Context:
     fixed: tuple[str, ...]
     min_score: float
     min_t: float
+    velocity: str  # how `v` was obtained, in words
 
     def step(self, model, added, restart=False):
         return _step(model, added, self.t, self.x, self.v, self.F, self.train, self.test,
@@ -210,12 +235,12 @@ def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
         if name in state.added:
             continue
         c = _screen(name, state.current, ctx.t, ctx.x, ctx.v_arr, ctx.F, state.resid, J,
-                    ctx.train, ctx.test, ctx.block, ctx.min_score, ctx.min_t)
+                    ctx.train, ctx.test, ctx.min_score, ctx.min_t)
         if c is not None:
             ranking.append(c)
     ranking.sort(key=lambda c: c.score, reverse=True)
     _joint_check(ranking, state.current, ctx.t, ctx.x, ctx.v_arr, state.resid, J, ctx.train,
-                 ctx.test, ctx.block, ctx.min_score, ctx.min_t)
+                 ctx.test, ctx.min_score, ctx.min_t)
     for c in ranking[:3]:
         ctx.log(f"  {c.name}: score {c.score:.3f}, t {c.t_stat:.1f}"
                 + ("  (significant)" if c.significant else ""))
@@ -225,7 +250,7 @@ def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
 def _refit(ctx: _Context, state: _State, new_effects, names_new):
     """Add `new_effects`, refit (from the fitted model and from the starting model with
     the effects; the better training fit is kept). Returns the step, its residual, whether
-    it removed enough held-out SSE, and its consistency (t, blocks)."""
+    it removed enough held-out SSE, and its consistency (t, batches)."""
     trial, trial_resid = ctx.step(state.current + new_effects, [*state.added, *names_new],
                                   restart=True)
     # The fitted model can sit where it compensated for the missing effect (a distorted
@@ -238,10 +263,10 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
     if float(fresh.fit.rmse) < float(trial.fit.rmse):
         trial, trial_resid = fresh, fresh_resid
     # The refit must remove at least half the screening threshold of held-out SSE, and an
-    # effect not yet shown consistent must now be so, block by block.
+    # effect not yet shown consistent must now be so where it acts.
     enough = trial.rmse_holdout**2 < (1.0 - 0.5 * ctx.min_score) * state.best_holdout**2
-    t_refit, n_blocks = _consistency(state.resid, trial_resid, ctx.test, ctx.block)
-    return trial, trial_resid, enough, t_refit, n_blocks
+    ev = evidence(state.resid, trial_resid, ctx.test, ctx.v_arr)
+    return trial, trial_resid, enough, ev.t, ev.batches
 
 
 def _try_singles(ctx: _Context, state: _State, ranking):
@@ -249,9 +274,9 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     residual)``, or ``(None, None, None)``."""
     tries = [c for c in ranking if c.significant]
     if ranking and not ranking[0].significant and ranking[0].score >= 4 * ctx.min_score:
-        # The largest score, but inconsistent across blocks: often a second missing effect
-        # confounding the linear screen. Try it first; the refit must confirm it block by
-        # block.
+        # The largest score, but not consistent: often a second missing effect
+        # confounding the linear screen. Try it first; the refit must confirm it where it
+        # acts.
         tries = [ranking[0], *tries]
     for chosen in tries:
         ctx.log(f"adding {chosen.name} and refitting ...")
@@ -261,10 +286,15 @@ def _try_singles(ctx: _Context, state: _State, ranking):
             if not chosen.significant:
                 chosen.significant, chosen.t_stat = True, t_refit
                 chosen.evidence += (f"; confirmed by the joint refit, consistent over "
-                                    f"{n_blocks} held-out blocks (t = {t_refit:.1f})")
+                                    f"{n_blocks} held-out batches (t = {t_refit:.1f})")
             return [chosen], trial, trial_resid
-        ctx.log(f"  {chosen.name} did not lower the held-out error enough, or not "
-                "consistently; not added")
+        removed = 1 - trial.rmse_holdout**2 / state.best_holdout**2
+        why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
+               f"{50 * ctx.min_score:.3g} %)" if not enough else
+               f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, needs "
+               f"{ctx.min_t:g})")
+        ctx.log(f"  {chosen.name} not added: {why}")
+        chosen.evidence += f"; not added: {why}"
         chosen.significant = False
     return None, None, None
 
@@ -281,7 +311,7 @@ def _describe_pair(pair, t_refit: float, n_blocks: int) -> None:
             f"{100 * pair.score:.3g} % of the held-out residual variance, {other.name} alone "
             f"{100 * other_score:.3g} %, so adding {c.name} to it removes {100 * share:.3g} % "
             f"(alone {100 * score:.3g} %, t = {t_stat:.1f}); confirmed by the joint refit of "
-            f"both, consistent over {n_blocks} held-out blocks (t = {t_refit:.1f})")
+            f"both, consistent over {n_blocks} held-out batches (t = {t_refit:.1f})")
         c.effect, c.code = effect, _code(effect)
         c.score, c.significant, c.t_stat = float(share), True, t_refit
 
@@ -301,7 +331,7 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
                 f"{100 * pair.score:.3g} % of the held-out residual jointly) and refitting ...")
         out = _refit(ctx, state, pair.effects, names_pair)
         ctx.log(f"  held-out RMSE {out[0].rmse_holdout:.4g} N (was {state.best_holdout:.4g} "
-                f"N), consistency over the held-out blocks t = {out[3]:.1f}")
+                f"N), consistency where they act t = {out[3]:.1f}")
         if out[2] and out[3] >= ctx.min_t:
             tried.append((out, pair))
     if not tried:
@@ -332,6 +362,8 @@ def diagnose(
     max_steps: int = 300,
     fixed: Sequence[str] = (),
     model_name: str | None = None,
+    derivatives: str = "central",
+    velocity_window: float | None = None,
     log: Callable[[str], None] | None = None,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
@@ -341,17 +373,23 @@ def diagnose(
     the model). `fixed`: parameter names of `model` held at their values in every fit
     (e.g. ``("sigma2",)`` with ``sigma2 = 0`` for a model without viscous friction); the
     screening then does not let them absorb an effect either. `max_steps`: per fit.
+    `derivatives`: how the velocity is estimated from the position when `v` is not given
+    (``"central"``, ``"savgol"`` or ``"backward"``, over `velocity_window` seconds; see
+    `fitting._derivatives`): every fit and screen uses that velocity, and the effects'
+    acceleration is its backward difference. Data made by `jaxfric.simulate` without a
+    velocity want ``"backward"``; measurements want a zero-phase estimate (the default).
     Returns a `Diagnosis`; its models are in the fit representation
     (`fitting.to_fit_representation`: a `PaperShape` appears as the equivalent
     `NormalizedPaperShape`, finite where the paper's ``a`` would overflow).
     """
     ctx = _context(model, t, x, F, v, blocks=blocks, max_steps=max_steps, fixed=fixed,
-                   min_score=min_score, min_t=min_t, log=log)
+                   min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
+                   velocity_window=velocity_window)
     present = {e.name for e in getattr(ctx.model, "effects", ())}
     names = [n for n in (effects or fx.EFFECTS) if n not in present]
     ctx.log(f"fitting the baseline model on {int(ctx.train.sum())} of {ctx.t.size} samples "
             f"({int(ctx.test.sum())} held out in {blocks // 3} blocks) ...")
-    baseline, resid = ctx.step(ctx.model, [])
+    baseline, resid = ctx.step(ctx.model, [], restart=True)
     state = _State(current=baseline.fit.model, resid=resid,
                    best_holdout=baseline.rmse_holdout, added=[])
     steps, rankings = [], []
@@ -370,12 +408,18 @@ def diagnose(
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
         state.best_holdout = trial.rmse_holdout
+    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F,
+                                         baseline.fit.prediction)}
+    if steps:
+        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F,
+                                         steps[-1].fit.prediction)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
-                     model=state.current, model_name=model_name or type(ctx.model).__name__)
+                     model=state.current, model_name=model_name or type(ctx.model).__name__,
+                     velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w})
 
 
-def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log
-             ) -> _Context:
+def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,
+             derivatives, velocity_window) -> _Context:
     """Check the inputs and set a diagnosis up (see `diagnose`)."""
     fixed = tuple(fixed)
     # Work in the fit representation throughout (a `PaperShape` as a `NormalizedPaperShape`):
@@ -386,8 +430,12 @@ def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, l
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {_params.leaf_names(model)}")
     t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
-    v_arr = velocity(t, x) if v is None else np.asarray(v, np.float64)
+    how = describe(derivatives, velocity_window, column=v is not None)
+    if v is None:
+        v = estimate_velocity(t, x, derivatives, velocity_window)
+    v = np.asarray(v, np.float64)
     test, block = holdout_mask(t, blocks)
-    return _Context(model=model, t=t, x=x, v=v, v_arr=v_arr, F=F, train=~test, test=test,
-                    block=block, masks=regimes(t, x, v_arr), log=log or (lambda *_: None),
-                    max_steps=max_steps, fixed=fixed, min_score=min_score, min_t=min_t)
+    return _Context(model=model, t=t, x=x, v=v, v_arr=v, F=F, train=~test, test=test,
+                    block=block, masks=regimes(t, x, v), log=log or (lambda *_: None),
+                    max_steps=max_steps, fixed=fixed, min_score=min_score, min_t=min_t,
+                    velocity=how)

@@ -1,6 +1,6 @@
 """Screening one candidate effect, or two together: one linearised (Gauss-Newton) step of the
 joint fit from the baseline optimum, scored by the held-out residual it removes and
-tested for consistency across held-out blocks.
+tested for consistency where it acts (`fitting._evidence`).
 """
 
 import dataclasses
@@ -24,6 +24,7 @@ from ._candidates import (
     _with_linear,
     Candidate,
 )
+from ._evidence import evidence
 
 
 def _base_jacobian(model, t, x, v, fixed=()):
@@ -39,26 +40,6 @@ def _base_jacobian(model, t, x, v, fixed=()):
     J = J[:, np.all(np.isfinite(J), axis=0)]
     norms = np.linalg.norm(J, axis=0)
     return J[:, norms > 0] / norms[norms > 0]
-
-
-def _consistency(ref, new, test, blocks) -> tuple[float, int]:
-    """How consistently residual `new` improves on `ref` over the held-out blocks: the
-    ``t`` statistic (against zero) of the share of each block's SSE removed, one number per
-    block (relative, so that blocks of large and small residual weigh alike and one block
-    cannot carry the verdict), and the number of blocks."""
-    per_block = []
-    for b in np.unique(blocks[test]):
-        in_b = test & (blocks == b)
-        ref_b = float(np.sum(ref[in_b] ** 2))
-        if ref_b > 0:
-            per_block.append((ref_b - float(np.sum(new[in_b] ** 2))) / ref_b)
-    per_block = np.asarray(per_block)
-    if per_block.size < 2:
-        return 0.0, int(per_block.size)
-    sem = per_block.std(ddof=1) / np.sqrt(per_block.size)
-    mean = per_block.mean()
-    t_stat = float(mean / sem) if sem > 0 else (np.inf if mean > 0 else 0.0)
-    return t_stat, int(per_block.size)
 
 
 def _base_signals(model, t, x, v):
@@ -93,13 +74,13 @@ def _normalised_columns(candidates, model, t, x, v, train):
     return [_unit_columns(_columns(c.effect, s), train) for c in candidates]
 
 
-def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_score, min_t):
+def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, min_t):
     """Re-test the leading candidates together: with two effects hidden, each one's screen
-    sees the other's residual as noise, which can make a real effect look inconsistent
-    across blocks. The candidates with a score of at least `min_score` (at most three) are
-    regressed jointly (with the model's Jacobian); each one's consistency is then that of
-    the held-out residual with all of them against the residual without it. A candidate
-    that is consistent this way becomes significant (the score, its size, is unchanged)."""
+    sees the other's residual as noise, which can make a real effect look inconsistent. The
+    candidates with a score of at least `min_score` (at most three) are regressed jointly
+    (with the model's Jacobian); each one's consistency is then that of the held-out
+    residual with all of them against the residual without it. A candidate that is
+    consistent this way becomes significant (the score, its size, is unchanged)."""
     lead = [c for c in candidates[:3] if c.score >= min_score]
     if len(lead) < 2:
         return
@@ -108,13 +89,13 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, blocks, min_
     full, _ = _regress(resid, train, J, *cols)
     for i, c in enumerate(lead):
         without, _ = _regress(resid, train, J, *cols[:i], *cols[i + 1:])
-        t_joint, n_blocks = _consistency(without, full, test, blocks)
-        if not c.significant and t_joint >= min_t:
+        ev = evidence(without, full, test, v)
+        if not c.significant and ev.t >= min_t:
             others = ", ".join(o.name for o in lead if o is not c)
             c.significant = True
-            c.t_stat = t_joint
+            c.t_stat = ev.t
             c.evidence += (f"; consistent when fitted together with {others} "
-                           f"(t = {t_joint:.1f} over {n_blocks} held-out blocks)")
+                           f"(t = {ev.t:.1f} over {ev.batches} held-out batches)")
 
 
 @dataclasses.dataclass
@@ -165,7 +146,7 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pai
     return pairs
 
 
-def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, min_t):
+def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t):
     s = _base_signals(model, t, x, v)
     best = None
     base_test = resid[test]
@@ -193,10 +174,10 @@ def _screen(name, model, t, x, v, F, resid, J, train, test, blocks, min_score, m
     if best is None:
         return None
     gain, effect, w, new = best
-    t_stat, n_blocks = _consistency(ref, new, test, blocks)
+    ev = evidence(ref, new, test, v)
     effect = _with_linear(effect, w)
-    significant = bool(gain >= min_score and t_stat >= min_t)
-    evidence = (f"{effect.describe()}; explains {100 * gain:.3g} % of the held-out residual "
-                f"variance (consistent over {n_blocks} held-out blocks: t = {t_stat:.1f})")
+    significant = bool(gain >= min_score and ev.t >= min_t)
+    words = (f"{effect.describe()}; explains {100 * gain:.3g} % of all the held-out residual "
+             f"variance; {ev.words()}")
     code = _code(effect)
-    return Candidate(name, effect, float(gain), t_stat, significant, evidence, code)
+    return Candidate(name, effect, float(gain), ev.t, significant, words, code)

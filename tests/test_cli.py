@@ -47,11 +47,13 @@ def _write(path, header, columns):
 
 
 def _synthetic(model, noise, seed=0, n=1500):
-    """Presliding loops and strokes at several speeds, irregularly sampled."""
+    """Presliding loops and strokes at several speeds, irregularly sampled; the force made
+    with the central-difference velocity that the command line derives by default."""
     t, x = strokes_with_loops(n, seed)
     rng = np.random.default_rng(seed)
     rng.uniform(size=n)  # the draws the motion took: the noise stays as it was
-    F = np.asarray(jaxfric.simulate(model, t, x)) + noise * rng.normal(size=n)
+    v = fitting.estimate_velocity(t, x)
+    F = np.asarray(jaxfric.simulate(model, t, x, v)) + noise * rng.normal(size=n)
     return t, x, F
 
 
@@ -194,9 +196,12 @@ def test_diagnose_json_schema_and_report(tmp_path):
     F = np.asarray(jaxfric.simulate(paper.tustin() + fx.Offset(offset=1.0), t, x))
     path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F + 0.05 * rng.normal(size=t.size)))
     out, report = tmp_path / "d.json", tmp_path / "report"
-    r = run("diagnose", path, "--model", "tustin", "--json", out, "--report", report)
+    # The data were made by `simulate` with its own backward-difference velocity.
+    r = run("diagnose", path, "--model", "tustin", "--json", out, "--report", report,
+            "--derivatives", "backward")
     assert r.returncode == 0, r.stderr
     d = json.loads(out.read_text())
+    assert d["velocity"].startswith("backward difference")
     assert d["baseline"]["model"] == "tustin" and d["baseline"]["rmse"] > 0.5
     scores = [c["score"] for c in d["candidates"]]
     assert scores == sorted(scores, reverse=True)

@@ -63,7 +63,8 @@ def test_fit_result_model_reloads_to_its_prediction():
 @pytest.mark.slow
 def test_diagnosis_json_holds_the_final_model_with_its_effects():
     t, x, F, _ = hidden_effect_measurement("cogging", seed=0, dt=2e-2)
-    d = fitting.diagnose(fitting.initial_model("tustin", t, x, F), t, x, F, max_steps=100)
+    d = fitting.diagnose(fitting.initial_model("tustin", t, x, F), t, x, F, max_steps=100,
+                          derivatives="backward")
     assert "cogging" in d.final.added
     back = jaxfric.load_model(json.loads(json.dumps(d.to_json())))
     assert isinstance(back, fx.WithEffects)

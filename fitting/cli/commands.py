@@ -47,6 +47,42 @@ def _progress_solver(log, every_s: float = 1.0):
     return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6, verbose=verbose)
 
 
+def identification_velocity(m, args, log):
+    """``(v, words)``: the file's velocity column, or the estimate `args.derivatives` asks
+    for (`fitting._derivatives`), and how it was obtained."""
+    from .._derivatives import describe, estimate_velocity
+
+    window = args.velocity_window
+    if m.v is not None:
+        return m.v, describe(args.derivatives, window, column=True)
+    try:
+        v = estimate_velocity(m.t, m.x, args.derivatives, window)
+    except ValueError as e:
+        raise _data.DataError(str(e)) from None
+    words = describe(args.derivatives, window)
+    log(f"velocity: {words}")
+    return v, words
+
+
+def derivatives_json(m, args) -> dict | None:
+    """How the velocity was obtained, for a result's JSON (`simulate --params` reads it
+    back); None when the file had a velocity column."""
+    if m.v is not None:
+        return None
+    return {"method": args.derivatives, "window_s": args.velocity_window}
+
+
+def _saved_derivatives(path) -> dict:
+    """The ``"derivatives"`` entry of a result JSON (already checked by `model_from_json`),
+    or an empty dict."""
+    try:
+        spec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return {}
+    entry = spec.get("derivatives") if isinstance(spec, dict) else None
+    return entry if isinstance(entry, dict) else {}
+
+
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
@@ -58,12 +94,17 @@ def run_fit(args) -> int:
         )
     log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
         f"{np.ptp(m.x) * 1e3:.4g} mm, force {m.F.min():.4g} .. {m.F.max():.4g} N")
-    start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
+    v, how = identification_velocity(m, args, log)
+    if args.params:
+        start, what = model_from_json(args.params, kind)
+        log(f"starting from {what}")
+    else:
+        start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
     log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
     t0 = time.perf_counter()
     watched = not args.quiet and sys.stdout.isatty()
-    res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps,
+    res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
                solver=_progress_solver(log) if watched else None)
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
@@ -73,7 +114,8 @@ def run_fit(args) -> int:
         print(f"warning: the fit did not converge ({res.status}); the values are the last "
               "iterate", file=sys.stderr)
     if args.json:
-        write_json(args.json, result_json(kind, res, m))
+        write_json(args.json, {**result_json(kind, res, m), "velocity": how,
+                               "derivatives": derivatives_json(m, args)})
         log(f"JSON written to {args.json}")
     if args.plot:
         plot_fit(args.plot, m, res, kind)
@@ -93,18 +135,17 @@ def run_diagnose(args) -> int:
             "inertia and offset are among the effects the diagnosis looks for")
     log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
         f"{np.ptp(m.x) * 1e3:.4g} mm, force {force.min():.4g} .. {force.max():.4g} N")
-    v = m.v
     window = args.velocity_window
-    if window is None and column == "u" and v is None:
-        window = 0.01
+    if window is None and column == "u" and m.v is None and args.derivatives == "central":
+        args.velocity_window = window = 0.01
         log("note: velocity from a central difference over 10 ms (--velocity-window), "
             "because inertia makes the force depend on its derivative")
-    if window and v is None:
-        v = m.velocity(window)
+    v, how = identification_velocity(m, args, log)
     start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
                  log=log)
+    d.velocity = how
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if args.report:
         from types import SimpleNamespace
@@ -113,12 +154,12 @@ def run_diagnose(args) -> int:
 
         page = write_report(
             args.report,
-            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window)),
+            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: v),
             d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
         )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
     if args.json:
-        write_json(args.json, d.to_json())
+        write_json(args.json, {**d.to_json(), "derivatives": derivatives_json(m, args)})
         log(f"JSON written to {args.json}")
     return 0
 
@@ -188,13 +229,21 @@ def run_simulate(args) -> int:
     if args.params:
         model, what = model_from_json(args.params, kind)
         log(f"model: {what}")
+        saved = _saved_derivatives(args.params)
+        if args.derivatives is None and saved.get("method"):
+            # The velocity the fit used, so that the model's force is the fit's prediction.
+            args.derivatives = saved["method"]
+            if args.velocity_window is None:
+                args.velocity_window = saved.get("window_s")
     else:
         model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
                  "tustin": paper.tustin}[kind]()
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
-    out = jaxfric.simulate(model, m.t, m.x, m.v, full_output=True)
+    args.derivatives = args.derivatives or "central"
+    v, _ = identification_velocity(m, args, log)
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
     force = np.asarray(out.force)
-    cols = {"t": m.t, "x": m.x, "v": m.velocity(), "F_model": force}
+    cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
         cols[m.force_column] = m.force
         err = force - m.force
@@ -222,12 +271,13 @@ def run_compare(args) -> int:
     if None in kinds:
         raise _data.DataError(f"--models {args.models!r}: choose from two-state, gms, lugre, "
                               "tustin")
-    masks = regimes(m.t, m.x, m.v)
+    v, _ = identification_velocity(m, args, log)
+    masks = regimes(m.t, m.x, v)
     rows, results = {}, {}
     for kind in kinds:
         log(f"fitting {kind} ...")
-        start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
-        res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps)
+        start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
+        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps)
         errs = regime_errors(np.asarray(res.residuals), masks)
         rows[kind] = errs
         results[kind] = {**result_json(kind, res, m), "regimes": errs}

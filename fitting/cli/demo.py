@@ -1,10 +1,12 @@
 """The computation behind ``jaxfric demo``: the whole story on built-in example data.
 
 1. The package makes a measurement (`example_measurement`): the `diagnosis_motion`
-   excitation, sampled every 20 ms, through a "stage" whose friction is a two-state model
-   with a different presliding shape family (`PowerShape`) and Stribeck curve than the model
-   that will be fitted, plus a hidden cogging force (0.67 N, period 1.7 mm) and 0.05 N of
-   noise. Seeded: the same data on every machine.
+   excitation through a "stage" whose friction is a two-state model with a different
+   presliding shape family (`PowerShape`) and Stribeck curve than the model that will be
+   fitted, plus a hidden cogging force (0.67 N, period 1.7 mm). The stage runs on a grid
+   ten times finer than the sampling (with its exact velocity), and the file holds what a
+   sensor records every 20 ms: the position quantised to a 0.1 um encoder and the force
+   with 0.05 N of noise, no velocity. Seeded: the same data on every machine.
 2. A two-state model with the paper's shape family, starting from values estimated from the
    data, is fitted; the diagnosis ranks the missing effects on held-out data, adds the
    significant ones and refits (`fitting.diagnose`).
@@ -22,8 +24,8 @@ import numpy as np
 import jaxfric
 from jaxfric import effects as fx
 from jaxfric.examples import diagnosis_motion, diagnosis_truth
-from jaxfric.motion import velocity
 
+from .._derivatives import estimate_velocity
 from ._output import atomic_file, write_json
 
 
@@ -31,13 +33,21 @@ NOISE_N = 0.05
 HIDDEN = "cogging"
 
 
+#: The stage is simulated on a grid this many times finer than the sampling.
+FINE = 10
+#: Encoder resolution (m per count).
+ENCODER = 0.1e-6
+
+
 def example_measurement(seed: int = 0, dt: float = 2e-2):
     """``(t, x, F, truth)`` in s, m, N: see the module docstring."""
-    t, x = diagnosis_motion(dt=dt, seed=seed)
+    t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed)
     stage = diagnosis_truth()  # PowerShape presliding, Stribeck 24/19 N, sigma2 50, C 9
     truth = stage + fx.Cogging(cog_sin=0.6, cog_cos=0.3, period=1.7e-3)
+    force = np.asarray(jaxfric.simulate(truth, t_fine, x_fine, np.gradient(x_fine, t_fine)))
+    t, x = t_fine[::FINE], np.round(x_fine[::FINE] / ENCODER) * ENCODER
     rng = np.random.default_rng(seed)
-    F = np.asarray(jaxfric.simulate(truth, t, x)) + rng.normal(0.0, NOISE_N, t.size)
+    F = force[::FINE] + rng.normal(0.0, NOISE_N, t.size)
     return t, x, F, truth
 
 
@@ -60,12 +70,14 @@ def run(out: Path, log=print) -> dict:
     d = diagnose(start, t, x, F, model_name="two-state", log=log)
     log("")
     log(d.summary())
-    m = SimpleNamespace(t=t, x=x, F=F, velocity=lambda: velocity(t, x))
+    m = SimpleNamespace(t=t, x=x, F=F, velocity=lambda: estimate_velocity(t, x))
     page = write_report(
         out, m, d, title="jaxfric demo: find the missing effect",
         intro=(f"Built-in example data ({t.size} samples): the friction of a simulated stage "
                "(a two-state model with another presliding shape and Stribeck curve than the "
-               f"fitted one) plus one hidden effect and {NOISE_N} N of noise. The hidden effect "
+               "fitted one) plus one hidden effect, sampled as a sensor would (a 0.1 um encoder, "
+               f"{NOISE_N} N of noise, no velocity: the diagnosis takes a central difference). "
+               "The hidden effect "
                f"was <b>{HIDDEN}</b>: 0.67 N, period 1.7 mm."),
     )
     found = d.final.added

@@ -12,7 +12,8 @@ Run the built-in example end to end and write a report.
 
 The example: a seeded identification motion (slow nested presliding loops, strokes at
 1..20 mm/s over 10 mm, a varying-velocity segment) through a simulated stage whose friction
-has one hidden effect, plus 0.05 N of noise. The two-state model is fitted, the diagnosis
+has one hidden effect, sampled every 20 ms as a sensor would (a 0.1 um encoder, 0.05 N of
+noise, no velocity column). The two-state model is fitted, the diagnosis
 ranks the missing effects on held-out data, adds the significant one and refits, and a
 report (report.html with figures and tables) is written.
 
@@ -71,6 +72,8 @@ examples:
 SIMULATE_HELP = """\
 Simulate a model along the motion of a file (t, x and optionally v; SI or units in the
 header) and write the model force as CSV. Without --params the paper's values are used.
+Without a v column the velocity is estimated from x (--derivatives; with --params, the way
+that fit estimated it, so the force is the fit's prediction).
 
 examples:
   jaxfric simulate motion.csv --model two-state --out forces.csv
@@ -121,6 +124,16 @@ def _add_data_options(p) -> None:
     p.add_argument("--quiet", action="store_true", help="print only errors")
 
 
+def _add_derivative_options(p, default_window: str = "none", default="central") -> None:
+    p.add_argument("--derivatives", default=default, choices=["central", "savgol", "backward"],
+                   help="velocity from the position when the file has no v column: central "
+                        "difference (zero phase; default), Savitzky-Golay, or the backward "
+                        "difference a causal controller computes"
+                        + ("" if default else "; with --params, the one the fit used"))
+    p.add_argument("--velocity-window", type=float, metavar="S",
+                   help=f"smooth the velocity estimate over S seconds (default: {default_window})")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``jaxfric`` argument parser (also used to print the help into the docs)."""
     parser = argparse.ArgumentParser(
@@ -157,6 +170,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
     p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
+    p.add_argument("--params", metavar="JSON",
+                   help="start from this model (a fit, a diagnosis or a saved model; its "
+                        "effects included) instead of values estimated from the data")
+    _add_derivative_options(p)
     p.set_defaults(func=_fit)
 
     p = sub.add_parser(
@@ -174,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
     p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="print only errors")
+    _add_derivative_options(p, default=None)
     p.set_defaults(func=_simulate)
 
     p = sub.add_parser(
@@ -187,6 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    _add_derivative_options(p)
     p.set_defaults(func=_compare)
 
     p = sub.add_parser(
@@ -202,9 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
-    p.add_argument("--velocity-window", type=float, metavar="S",
-                   help="velocity by central difference over S seconds (default: backward "
-                        "difference; 0.01 s for drive-force data u)")
+    _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 
     return parser
