@@ -70,7 +70,7 @@ def run_case(case: dict) -> dict:
             "rmse_before": d.baseline.rmse, "rmse_after": d.final.rmse,
             "rmse_holdout_before": d.baseline.rmse_holdout,
             "rmse_holdout_after": d.final.rmse_holdout,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "summary": d.summary()}
 
 
 def cases(quick: bool) -> list[dict]:

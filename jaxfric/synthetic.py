@@ -6,6 +6,8 @@ tests from other truths.
   with its own Stribeck curve (``gms_power``); a LuGre model with stiff bristles
   (``lugre``); a two-state model with a `PowerShape` presliding curve
   (``two_state_power``);
+- **motion**: `jaxfric.examples.diagnosis_motion` with its velocity steps turned into
+  ramps of 0.1 s (`finite_acceleration`), so that a mass has something to act on;
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
   with the fine grid's own central-difference velocity, and the hidden effects are computed
   there with formulas written here (`hidden_force`), not with `jaxfric.effects`;
@@ -18,6 +20,7 @@ import numpy as np
 
 
 FINE = 10  # the truth runs on a grid this many times finer than the sampling
+RAMP = 0.1  # s: the stage changes its velocity over this time (a finite acceleration)
 ENCODER = 0.05e-6  # m per count
 TRUTHS = ("gms_power", "lugre", "two_state_power")
 HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
@@ -53,10 +56,13 @@ def hidden_force(name: str, t, x, v, a, base, level):
     if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
         excess = np.maximum(np.abs(v) - 5e-3, 0.0)
         return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
-    if name == "asymmetry":  # 6 % more friction moving toward +x only
-        return 0.06 * level * (v > 0)
-    if name == "inertia":  # a mass error: 2 N at the typical acceleration
-        typical = np.median(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()])
+    if name == "asymmetry":  # the friction level 6 % higher moving toward +x only
+        # Proportional to the friction force, as a direction-dependent friction level is. (A
+        # constant step, ``c * (v > 0)``, is ``c/2`` of offset plus ``c/2`` more symmetric
+        # friction, sample for sample in sliding: no data can tell it from an offset.)
+        return 0.06 * np.abs(base) * (v > 0)
+    if name == "inertia":  # a mass error: 2 N at the 90th percentile of |a| while accelerating
+        typical = np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)
         return 2.0 / typical * a
     if name == "cogging":  # two harmonics of a 1.3 mm pitch
         phase = 2 * np.pi * x / 1.3e-3
@@ -84,6 +90,16 @@ def hidden_force(name: str, t, x, v, a, base, level):
     raise ValueError(name)
 
 
+def finite_acceleration(t, x, ramp: float):
+    """The motion `x` (m) at uniform times `t` (s) with its velocity averaged over `ramp`
+    seconds (causally): every velocity step becomes a ramp, as a real stage accelerates."""
+    h = float(t[1] - t[0])
+    k = max(1, round(ramp / h))
+    v = np.diff(x) / h
+    v = np.convolve(v, np.ones(k) / k)[: v.size]
+    return x[0] + np.r_[0.0, np.cumsum(v) * h]
+
+
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
                 dt: float = 1e-2, seed: int = 0):
     """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
@@ -93,6 +109,7 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     from .examples import diagnosis_motion
 
     t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
+    x_fine = finite_acceleration(t_fine, x_fine, RAMP)
     model = truth(truth_name)
     v = _central(t_fine, x_fine)
     a = _central(t_fine, v)
