@@ -11,15 +11,19 @@ import jax
 import numpy as np
 import optimistix as optx
 
-from jaxfric import data as _data
+from jaxfric import data as _data, units as _units
 
 from .._fit import fit as _fit
 from .._start import initial_model
 from ._io import (
+    cli_kind,
+    describe,
+    diagnosis_json,
     load_for_cli,
     MODEL_NAMES,
     param_table,
     parse_units,
+    print_warnings,
     result_json,
 )
 from ._output import atomic_file, write_json
@@ -56,8 +60,7 @@ def run_fit(args) -> int:
             f"{m.source}: 'fit' needs the friction force F; this file has only the drive force "
             "u (inertia and offsets included): use 'jaxfric diagnose' or subtract them first"
         )
-    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
-        f"{np.ptp(m.x) * 1e3:.4g} mm, force {m.F.min():.4g} .. {m.F.max():.4g} N")
+    log(describe(m))
     start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
     log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
@@ -67,8 +70,9 @@ def run_fit(args) -> int:
                solver=_progress_solver(log) if watched else None)
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
-        f"RMSE {float(res.rmse):.4g} N, NRMSE {float(res.nrmse):.4g}, R2 {float(res.r2):.4f}")
-    log(param_table(res))
+        f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
+        f"R2 {float(res.r2):.4f}")
+    log(param_table(res, m.kind))
     if not bool(res.converged):
         print(f"warning: the fit did not converge ({res.status}); the values are the last "
               "iterate", file=sys.stderr)
@@ -87,12 +91,14 @@ def run_diagnose(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
     m = load_for_cli(args, log)
+    if m.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
+        plain = log
+        log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
     force, column = m.force, m.force_column
     if column == "u":
         log("note: the file has the drive force u (not F): the model starts as friction only; "
             "inertia and offset are among the effects the diagnosis looks for")
-    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
-        f"{np.ptp(m.x) * 1e3:.4g} mm, force {force.min():.4g} .. {force.max():.4g} N")
+    log(describe(m))
     v = m.v
     window = args.velocity_window
     if window is None and column == "u" and v is None:
@@ -113,12 +119,13 @@ def run_diagnose(args) -> int:
 
         page = write_report(
             args.report,
-            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window)),
+            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window),
+                            kind=m.kind),
             d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
         )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
     if args.json:
-        write_json(args.json, d.to_json())
+        write_json(args.json, diagnosis_json(d, m.kind))
         log(f"JSON written to {args.json}")
     return 0
 
@@ -130,6 +137,10 @@ def model_from_params(kind: str, params: dict):
 
     from .. import _params
 
+    if not isinstance(params, dict) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in params.values()):
+        raise _data.DataError("'params' must be an object of parameter names and numbers, "
+                              "as 'jaxfric fit --json' writes it")
     n = sum(1 for k in params if k.startswith("nu_"))
     template = {"two-state": paper.two_state, "lugre": paper.lugre, "tustin": paper.tustin,
                 "gms": lambda: paper.gms(max(n, 1))}[kind]()
@@ -169,7 +180,20 @@ def model_from_json(path, kind: str):
         raise _data.DataError(f"{path}: holds no model: expected 'fitted_model' (from "
                               "'jaxfric fit --json' or 'jaxfric diagnose --json') or 'params'")
     kind = MODEL_NAMES.get(spec.get("model", kind), kind)
-    return model_from_params(kind, spec["params"]), f"{kind} with the parameters of {path}"
+    try:
+        model = model_from_params(kind, spec["params"])
+    except _data.DataError as e:
+        raise _data.DataError(f"{path}: {e}") from None
+    return model, f"{kind} with the parameters of {path}"
+
+
+def _json_kind(path) -> str | None:
+    """The kind (linear, rotary) of the data a saved result was fitted to, if it says."""
+    try:
+        spec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return spec.get("kind") if isinstance(spec, dict) else None
 
 
 def run_simulate(args) -> int:
@@ -180,13 +204,15 @@ def run_simulate(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
-                       check_sign=False)
-    for w in caught:
-        if not args.quiet:
-            print(f"warning: {w.message}", file=sys.stderr)
+                       check_sign=False, kind=cli_kind(args))
+    print_warnings(caught, args)
     kind = MODEL_NAMES[args.model]
     if args.params:
         model, what = model_from_json(args.params, kind)
+        fitted_on = _json_kind(args.params)
+        if fitted_on in _units.KINDS and fitted_on != m.kind:
+            raise _data.DataError(f"{args.params}: the model was fitted to {fitted_on} data, "
+                                  f"{m.source} is {m.kind} (declare its units or --kind)")
         log(f"model: {what}")
     else:
         model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
@@ -198,9 +224,11 @@ def run_simulate(args) -> int:
     if m.force is not None:
         cols[m.force_column] = m.force
         err = force - m.force
-        log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} N")
+        log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} "
+            f"{m.unit('F')}")
     target = Path(args.out)
-    header = ",".join(f"{k}[{u}]" for k, u in zip(cols, ["s", "m", "m/s", "N", "N"]))
+    units = [m.unit(c) for c in ("t", "x", "v", "F", "F")]
+    header = ",".join(f"{k}[{u}]" for k, u in zip(cols, units))
     with atomic_file(target) as f:
         np.savetxt(f, np.column_stack(list(cols.values())), delimiter=",", header=header,
                    comments="", fmt="%.17g")
@@ -229,15 +257,15 @@ def run_compare(args) -> int:
         start = initial_model(kind, m.t, m.x, m.F, m.v, n_elements=args.elements)
         res = _fit(start, m.t, m.x, m.F, m.v, max_steps=args.max_steps)
         errs = regime_errors(np.asarray(res.residuals), masks)
-        rows[kind] = errs
+        rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
         results[kind] = {**result_json(kind, res, m), "regimes": errs}
     names = list(next(iter(rows.values())))
-    log("\nRMSE per regime, N (fitted to the whole file):")
+    log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file):")
     log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))
     for kind, errs in rows.items():
         log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"
                                     for n in names))
     if args.json:
-        write_json(args.json, {"file": str(m.source), "models": results})
+        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
         log(f"JSON written to {args.json}")
     return 0

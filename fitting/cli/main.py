@@ -117,8 +117,16 @@ def _add_data_options(p) -> None:
                    help="units of columns without one in the header, e.g. x=mm,F=mN")
     p.add_argument("--flip-force", action="store_true",
                    help="multiply the force by -1 (data recorded with the opposite sign)")
+    _add_kind_options(p)
     p.add_argument("--json", metavar="OUT", help="write the result as JSON")
     p.add_argument("--quiet", action="store_true", help="print only errors")
+
+
+def _add_kind_options(p) -> None:
+    p.add_argument("--kind", choices=["linear", "rotary"],
+                   help="linear (m, N) or rotary (rad, N m) for a file whose header has no "
+                        "units (default: from the units, else linear)")
+    p.add_argument("--rotary", action="store_true", help="same as --kind rotary")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -168,6 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", metavar="FILE", help="motion: .csv (header row) or .npz")
     p.add_argument("--units", action="append", metavar="COL=UNIT",
                    help="units of columns without one in the header, e.g. x=mm")
+    _add_kind_options(p)
     p.add_argument("--model", default="two-state",
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model (default: %(default)s; the paper's values)")
@@ -220,6 +229,9 @@ def main(argv=None) -> int:
     enable_compilation_cache()
     signal.signal(signal.SIGTERM, _terminate)
     try:
+        from ._io import check_options
+
+        check_options(args)
         _check_outputs(args)
         return args.func(args)
     except DataError as e:
