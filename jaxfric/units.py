@@ -130,7 +130,7 @@ _TEXT_UNITS = sorted(
 _TEXT = re.compile(
     r"(?P<pre>(?:[\d\]\)%]\s)|\[|\bin\s)(?P<unit>"
     + "|".join(re.escape(u) for u in _TEXT_UNITS)
-    + r")(?=$|[\s,;.:)\]])")
+    + r")(?=$|[\s,;.:)\]])(?!\s+m\b)")  # not followed by " m": already rotary (N m)
 
 
 def speak(text: str, kind: str) -> str:
