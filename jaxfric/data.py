@@ -1,21 +1,28 @@
 """Measurements from files (CSV, NPZ), DataFrames or arrays, checked and converted to SI.
 
-A measurement has columns ``t`` (time), ``x`` (position) and either ``F`` (the friction force)
-or ``u`` (the drive force, which also contains inertia and offsets); optionally ``v``
-(velocity), ``a`` (acceleration) and ``normal`` (normal load). Any other column is kept in
-`Measurement.extra`.
+A measurement has columns ``t`` (time), ``x`` (position or angle) and either ``F`` (the
+friction force or torque) or ``u`` (the drive force or torque, which also contains inertia
+and offsets); optionally ``v`` (velocity), ``a`` (acceleration) and ``normal`` (normal load).
+Any other numeric column is kept in `Measurement.extra`; a text column is ignored with a note.
 
-**Units.** SI by default (s, m, m/s, m/s^2, N). A unit in the header converts:
-``t[ms]``, ``x[mm]``, ``x[um]``, ``F[mN]``, ``v[mm/s]`` ... (see `UNITS`), or pass
-``units={"x": "mm"}`` (the CLI's ``--units x=mm``).
+**Units.** SI by default: s, m, m/s, m/s^2, N for a linear file; s, rad, rad/s, rad/s^2,
+N m for a rotary one (a joint or motor axis). A unit in the header converts: ``t[ms]``,
+``x[mm]``, ``F[mN]``, ``x[deg]``, ``v[rpm]``, ``F[N m]`` ... (see `jaxfric.units`), or pass
+``units={"x": "mm"}`` (the CLI's ``--units x=mm``). The units decide whether a file is
+linear or rotary (`Measurement.kind`); ``kind=`` (``--rotary``) decides for a file without
+units.
 
 **Checks.** Every problem raises `DataError`, a `ValueError` whose one-line message names the
-source, the column and the (1-based, data) row: missing or empty file, no header, missing
-column, non-numeric cell, NaN/inf, time not increasing or duplicated, too few samples, no
-motion at all, absurd magnitudes, and positions spanning more than 2 m with no unit
-declared (millimetres read as metres; declare ``x[m]`` to confirm). Suspicious but possible
-data give a `DataWarning` instead: a force whose sign is opposite to the friction convention
-(friction has the sign of ``v``), corrected with ``flip_force=True`` (CLI ``--flip-force``).
+source, the column and the (1-based, data) row: a missing, unreadable or non-regular file
+(devices and FIFOs are refused unread), a file or column beyond the size limits
+(`MAX_FILE_BYTES`, `MAX_SAMPLES`), a wrong NPZ, no header, missing column, non-numeric
+cell, NaN/inf, time not increasing or duplicated, too few samples, no motion at all, absurd
+magnitudes, and linear positions spanning more than 2 m with no unit declared (millimetres
+read as metres; declare ``x[m]`` to confirm). Suspicious but possible data give a
+`DataWarning` instead: undeclared units that look like another unit (`jaxfric._plausible`:
+ms, mm, mN, deg, mm/s, deg/s, rpm), and a force whose sign is opposite to the friction
+convention (friction has the sign of ``v``), corrected with ``flip_force=True`` (CLI
+``--flip-force``).
 
 Irregular sampling is kept as it is: every model takes the time column as given.
 """

@@ -46,11 +46,14 @@ FILE is a CSV (header row: t, x, F; optional v, normal; units in brackets such a
 F[mN]) or an NPZ with those arrays. F is the friction force with the sign of the velocity;
 if the file uses the opposite sign you will be warned, and --flip-force corrects it.
 The starting values are estimated from the data; all parameters are fitted jointly.
+A rotary file (a joint: x[rad] or x[deg], v[rad/s] or v[rpm], F[N m]; --rotary when the
+header has no units) is fitted the same way and reported in rad, rad/s and N m.
 
 examples:
   jaxfric fit run1.csv --model two-state
   jaxfric fit tribometer.csv --model two-state --flip-force --json fit.json --plot fit.png
   jaxfric fit data.csv --model gms --elements 10 --units x=mm,F=mN
+  jaxfric fit joint.csv --units x=deg,v=deg/s,F=Nm
 """
 
 
