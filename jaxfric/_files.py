@@ -180,6 +180,22 @@ def _read_body(source, parsed, rows, standard):
     return kept, columns, notes
 
 
+def header_names(path: Path) -> list[str]:
+    """The column names of a file's header (units stripped), reading nothing else."""
+    check_path(path)
+    if path.suffix.lower() == ".npz":
+        try:
+            with zipfile.ZipFile(path) as z:
+                cells = [n[:-4] for n in z.namelist() if n.endswith(".npy")]
+        except (zipfile.BadZipFile, OSError):
+            return []
+    else:
+        with _open(path, "r", encoding="utf-8-sig", errors="replace", newline="") as f:
+            first = next((ln for ln in f if ln.strip() and not ln.lstrip().startswith("#")), "")
+        cells = next(iter(_splitter(first)([first])), []) if first else []
+    return [m.group(1) for c in cells if (m := _HEADER.match(c.strip()))]
+
+
 def _member_header(f, source: str, key: str):
     try:
         version = np.lib.format.read_magic(f)

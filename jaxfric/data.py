@@ -36,7 +36,7 @@ from typing import Any
 import equinox as eqx
 import numpy as np
 
-from . import _files, _plausible, units as _units
+from . import _files, _joints, _plausible, units as _units
 from ._files import DataError
 from .motion import velocity
 from .units import LINEAR
@@ -181,8 +181,10 @@ def _declared(source: str, columns: dict, header_unit: dict, units: dict) -> dic
     return declared
 
 
-def _decide_kind(source: str, declared: dict[str, str], kind: str | None) -> str:
-    """Linear or rotary from the declared units, or `kind` when they do not tell."""
+def _decide_kind(source: str, declared: dict[str, str], kind: str | None,
+                 default: str = LINEAR) -> str:
+    """Linear or rotary from the declared units, or `kind` (else `default`) when they do
+    not tell."""
     if kind is not None and kind not in _units.KINDS:
         raise DataError(f"kind {kind!r}: expected 'linear' or 'rotary'")
     votes = {c: _units.kind_of_unit(c, u) for c, u in declared.items()}
@@ -196,7 +198,7 @@ def _decide_kind(source: str, declared: dict[str, str], kind: str | None) -> str
         said = ", ".join(f"{c} in {declared[c]}" for c in votes)
         raise DataError(f"{source}: asked for a {kind} file, but its units are "
                         f"{found.pop()} ({said})")
-    return found.pop() if found else (kind or LINEAR)
+    return found.pop() if found else (kind or default)
 
 
 def _to_si(source: str, columns: dict[str, np.ndarray], declared: dict[str, str], kind: str
@@ -236,7 +238,7 @@ def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> Meas
                 "opposite sign to the friction convention (friction has the sign of v). "
                 "Use --flip-force (flip_force=True) if so.",
                 DataWarning,
-                stacklevel=3,  # the caller of `load`
+                stacklevel=4,  # the caller of `load`
             )
     return m
 
@@ -269,10 +271,65 @@ def load(
 
     **Returns:** a `Measurement`. **Raises:** `DataError` with a one-line message.
     """
-    source, parsed, columns, read_notes = _read(data)
+    return _load(_read(data), units=units, flip_force=flip_force, require_force=require_force,
+                 check_sign=check_sign, kind=kind)
+
+
+def load_joints(
+    data,
+    *,
+    units: Mapping[str, str] | None = None,
+    flip_force: bool = False,
+    require_force: bool = True,
+    check_sign: bool = True,
+    kind: str | None = None,
+) -> dict[str, Measurement]:
+    """Read a file of several joints: ``{"joint 1": Measurement, ...}``, each checked and
+    converted as `load` does.
+
+    The layouts (`jaxfric._joints`): numbered columns beside one ``t`` (``q1..qN``,
+    ``dq1..dqN``, ``tau1..tauN``, or ``x1``, ``v1``, ``F1`` ...; units per column such as
+    ``q1[deg]``), or a numeric ``joint`` column with the standard columns. Robot names
+    (q, dq, tau) make the joints rotary unless their units say otherwise. `units` may name
+    a numbered column (``{"q2": "deg"}``), a prefix for all joints (``{"q": "deg"}``) or a
+    standard column (``{"x": "deg"}``); the other arguments are as for `load`.
+    """
+    source, parsed, columns, notes = _read(data)
+    if _joints.joint_layout(columns) is None:
+        raise DataError(f"{source}: one joint only (no q1.., x1.. or 'joint' column); "
+                        "use jaxfric.data.load")
+    per_joint, robot = _joints.split(source, parsed, columns, dict(units or {}), DataError)
+    out = {}
+    for name, mapping in per_joint.items():
+        read = (f"{source} {name}", _files.parse_header(source, list(mapping)),
+                {k.split("[")[0]: v for k, v in mapping.items()}, notes)
+        out[name] = _load(read, units={}, flip_force=flip_force, require_force=require_force,
+                          check_sign=check_sign, kind=kind,
+                          default_kind=_units.ROTARY if robot else LINEAR)
+    return out
+
+
+def joint_layout(data) -> str | None:
+    """``"wide"`` (q1, dq1, tau1 ...), ``"long"`` (a ``joint`` column) or ``None`` (one
+    joint) for a path (only its header is read), a DataFrame or a mapping."""
+    if isinstance(data, str | Path):
+        names = _files.header_names(Path(data))
+    else:
+        names = [str(c).split("[")[0].strip() for c in data]
+    return _joints.joint_layout(names)
+
+
+def _load(read, *, units, flip_force, require_force, check_sign, kind,
+          default_kind: str = LINEAR) -> Measurement:
+    source, parsed, columns, read_notes = read
+    layout = _joints.joint_layout(columns)
+    if layout is not None:
+        raise DataError(f"{source}: holds several joints ({layout} layout: "
+                        f"{', '.join(list(columns)[:4])}, ...); read it with "
+                        "jaxfric.data.load_joints (the command line fits each joint)")
     header_unit = dict(parsed)
     declared = _declared(source, columns, header_unit, dict(units or {}))
-    kind = _decide_kind(source, declared, kind)
+    kind = _decide_kind(source, declared, kind, default_kind)
     notes = [*read_notes, *_to_si(source, columns, declared, kind)]
     _check(source, columns, require_force, kind)
     m = Measurement(
@@ -285,7 +342,7 @@ def load(
     if "x" not in declared and kind == LINEAR:
         _check_length_unit(m)
     for message in _plausible.unit_warnings(m, set(declared)):
-        warnings.warn(f"{source}: {message}", DataWarning, stacklevel=2)
+        warnings.warn(f"{source}: {message}", DataWarning, stacklevel=3)
     return _orient_force(m, flip_force=flip_force, check_sign=check_sign)
 
 

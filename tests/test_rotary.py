@@ -51,6 +51,11 @@ def _write(path, header, cols):
 
 def _files(tmp):
     t, x, v, F = _joint()
+    _, x2, v2, F2 = _joint(seed=1)
+    x2, v2, F2 = 2 * x2, 2 * v2, F2 / 20  # a wrist: twice the swing, a twentieth the torque
+    _write(tmp / "robot.csv", "t[s],q1[rad],dq1[rad/s],tau1[N m],q2[deg],dq2[deg/s],tau2[mNm]",
+           (t, x, v, F, np.degrees(x2), np.degrees(v2), F2 * 1e3))
+    _write(tmp / "wrist.csv", "t[s],x[rad],v[rad/s],F[N m]", (t, x2, v2, F2))
     return (_write(tmp / "joint_rad.csv", "t[s],x[rad],v[rad/s],F[N m]", (t, x, v, F)),
             _write(tmp / "joint_deg.csv", "t[s],x[deg],v[deg/s],F[N*m]",
                    (t, np.degrees(x), np.degrees(v), F)),
@@ -75,8 +80,13 @@ def runs(tmp_path_factory):
     """fit (rad, deg, no units with --rotary) and simulate."""
     tmp = tmp_path_factory.mktemp("rotary")
     rad, deg, bare, slide = _files(tmp)
-    out = {k: str(tmp / k) for k in ("fit_rad.json", "fit_deg.json", "sim.csv", "fit.png")}
+    out = {k: str(tmp / k) for k in ("fit_rad.json", "fit_deg.json", "sim.csv", "fit.png",
+                                     "robot.json", "wrist.json")}
     return _run({
+        "fit_robot": ["fit", str(tmp / "robot.csv"), "--model", "tustin", "--json",
+                      out["robot.json"]],
+        "fit_wrist": ["fit", str(tmp / "wrist.csv"), "--model", "tustin", "--json",
+                      out["wrist.json"]],
         "fit_rad": ["fit", str(rad), "--model", "tustin", "--json", out["fit_rad.json"],
                     "--plot", out["fit.png"]],
         "fit_deg": ["fit", str(deg), "--model", "tustin", "--json", out["fit_deg.json"]],
@@ -93,8 +103,12 @@ def slow_runs(tmp_path_factory):
     """compare and diagnose (with their report)."""
     tmp = tmp_path_factory.mktemp("rotary_slow")
     rad, deg, _, _ = _files(tmp)
-    out = {k: str(tmp / k) for k in ("cmp.json", "diag.json", "report")}
+    out = {k: str(tmp / k) for k in ("cmp.json", "diag.json", "report", "robot_diag.json",
+                                     "robot_report")}
     return _run({
+        "diagnose_robot": ["diagnose", str(tmp / "robot.csv"), "--model", "tustin",
+                           "--max-steps", "10", "--json", out["robot_diag.json"],
+                           "--report", out["robot_report"]],
         "compare": ["compare", str(rad), "--models", "tustin,lugre", "--max-steps", "15",
                     "--json", out["cmp.json"]],
         "diagnose": ["diagnose", str(deg), "--model", "tustin", "--max-steps", "10",
@@ -123,7 +137,7 @@ def test_fit_and_simulate_run_and_speak_rotary(runs):
     for name, r in res.items():
         if name != "simulate_linear":
             assert r["rc"] == 0, (name, r["stderr"])
-    for what, text in _texts(res, out, ("fit_rad.json", "fit_deg.json")).items():
+    for what, text in _texts(res, out, ("fit_rad.json", "fit_deg.json", "robot.json")).items():
         assert _linear_words(text) == [], what
     said = res["fit_rad"]["stdout"]
     assert "N m s/rad" in said and "rad/s" in said
@@ -136,7 +150,7 @@ def test_compare_and_diagnose_speak_rotary(slow_runs):
     res, out = slow_runs
     for name, r in res.items():
         assert r["rc"] == 0, (name, r["stderr"])
-    texts = _texts(res, out, ("cmp.json", "diag.json"))
+    texts = _texts(res, out, ("cmp.json", "diag.json", "robot_diag.json"))
     with open(f"{out['report']}/report.html") as f:
         texts["report.html"] = f.read()
     for what, text in texts.items():
@@ -187,3 +201,59 @@ def test_measurement_records_its_kind(tmp_path):
     np.testing.assert_allclose(m.F, F, rtol=1e-15)
     assert m.notes == ("x converted from mrad to rad", "F converted from mNm to N m")
     assert data.load({"t": t, "x": x / 10, "F": F}).kind == "linear"
+
+
+# ---- several joints in one file (issue 18, item 3) ------------------------------------
+
+
+def test_several_joints_are_fitted_each_as_if_alone(runs):
+    res, out = runs
+    robot = _json(out["robot.json"])
+    assert list(robot["joints"]) == ["joint 1", "joint 2"] and robot["kind"] == "rotary"
+    alone = {"joint 1": _json(out["fit_rad.json"]), "joint 2": _json(out["wrist.json"])}
+    for name, single in alone.items():
+        joint = robot["joints"][name]
+        assert joint["units"] == single["units"]
+        for p, value in single["params"].items():
+            assert math.isclose(joint["params"][p], value, rel_tol=1e-9), (name, p)
+    said = res["fit_robot"]["stdout"]
+    assert "tustin per joint:" in said and "=== joint 2 ===" in said
+    table = said.split("tustin per joint:")[1].splitlines()
+    assert "N m s/rad" in table[2] and table[3].startswith("joint 1")
+    assert table[4].startswith("joint 2")
+
+
+@pytest.mark.slow
+def test_several_joints_are_diagnosed(slow_runs):
+    res, out = slow_runs
+    d = _json(out["robot_diag.json"])
+    assert list(d["joints"]) == ["joint 1", "joint 2"]
+    assert all(j["kind"] == "rotary" for j in d["joints"].values())
+    assert "diagnosis per joint (RMSE in N m)" in res["diagnose_robot"]["stdout"]
+    with open(f"{out['robot_report']}/joint_2/report.html") as f:
+        assert "N m" in f.read()
+
+
+def test_load_joints_layouts_and_units():
+    t, x, v, F = _joint(300)
+    wide = data.load_joints({"t": t, "q1": x, "dq1": v, "tau1": F, "q2": 2 * x,
+                             "tau2[mNm]": F * 1e3, "temperature": np.ones(300)},
+                            units={"q": "rad"})
+    assert list(wide) == ["joint 1", "joint 2"]
+    assert all(m.kind == "rotary" for m in wide.values())  # robot names
+    np.testing.assert_allclose(wide["joint 2"].F, F, rtol=1e-15)
+    np.testing.assert_array_equal(wide["joint 2"].x, 2 * x)
+    assert wide["joint 2"].v is None and "temperature" in wide["joint 1"].extra
+    deg = data.load_joints({"t": t, "q1": np.degrees(x), "tau1": F, "q2[rad]": x, "tau2": F},
+                           units={"q1": "deg"})
+    np.testing.assert_allclose(deg["joint 1"].x, x, rtol=1e-14)
+    linear = data.load_joints({"t": t, "x1": x / 100, "F1": F, "x2": x / 50, "F2": F})
+    assert all(m.kind == "linear" for m in linear.values())
+    long = data.load_joints({"t": np.r_[t, t], "joint": np.r_[np.full(300, 3), np.full(300, 7)],
+                             "x[deg]": np.r_[x, 2 * x], "F[N m]": np.r_[F, F]})
+    assert list(long) == ["joint 3", "joint 7"]
+    np.testing.assert_allclose(long["joint 7"].x, np.radians(2 * x), rtol=1e-15)
+    with pytest.raises(data.DataError, match=r"holds several joints.*load_joints"):
+        data.load({"t": t, "q1": x, "tau1": F})
+    with pytest.raises(data.DataError, match="one joint only"):
+        data.load_joints({"t": t, "x": x, "F": F})

@@ -54,7 +54,23 @@ def _progress_solver(log, every_s: float = 1.0):
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
+    if _data.joint_layout(args.file):
+        from .joints import fit_joints
+
+        return fit_joints(args, kind, log, fit_measurement)
     m = load_for_cli(args, log)
+    res = fit_measurement(args, kind, m, log)
+    if args.json:
+        write_json(args.json, result_json(kind, res, m))
+        log(f"JSON written to {args.json}")
+    if args.plot:
+        plot_fit(args.plot, m, res, kind)
+        log(f"plot written to {args.plot}")
+    return 0
+
+
+def fit_measurement(args, kind: str, m, log):
+    """Fit model `kind` to `m` with the command line's options, printing its table."""
     if m.F is None:
         raise _data.DataError(
             f"{m.source}: 'fit' needs the friction force F; this file has only the drive force "
@@ -74,23 +90,31 @@ def run_fit(args) -> int:
         f"R2 {float(res.r2):.4f}")
     log(param_table(res, m.kind))
     if not bool(res.converged):
-        print(f"warning: the fit did not converge ({res.status}); the values are the last "
-              "iterate", file=sys.stderr)
-    if args.json:
-        write_json(args.json, result_json(kind, res, m))
-        log(f"JSON written to {args.json}")
-    if args.plot:
-        plot_fit(args.plot, m, res, kind)
-        log(f"plot written to {args.plot}")
-    return 0
+        print(f"warning: {m.source}: the fit did not converge ({res.status}); the values are "
+              "the last iterate", file=sys.stderr)
+    return res
 
 
 def run_diagnose(args) -> int:
-    from .._diagnose import diagnose
-
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
+    if _data.joint_layout(args.file):
+        from .joints import diagnose_joints
+
+        return diagnose_joints(args, kind, log, diagnose_measurement)
     m = load_for_cli(args, log)
+    d = diagnose_measurement(args, kind, m, log, args.report)
+    if args.json:
+        write_json(args.json, diagnosis_json(d, m.kind))
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def diagnose_measurement(args, kind: str, m, log, report):
+    """Diagnose `m` from model `kind` with the command line's options; the report (if
+    `report` names a folder) and the summary speak `m`'s units. Returns the diagnosis."""
+    from .._diagnose import diagnose
+
     if m.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
         plain = log
         log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
@@ -112,22 +136,19 @@ def run_diagnose(args) -> int:
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
                  log=log)
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
-    if args.report:
+    if report:
         from types import SimpleNamespace
 
         from .report import write_report
 
         page = write_report(
-            args.report,
+            report,
             SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: m.velocity(window),
                             kind=m.kind),
             d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
         )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
-    if args.json:
-        write_json(args.json, diagnosis_json(d, m.kind))
-        log(f"JSON written to {args.json}")
-    return 0
+    return d
 
 
 def model_from_params(kind: str, params: dict):
