@@ -48,6 +48,8 @@ if the file uses the opposite sign you will be warned, and --flip-force corrects
 The starting values are estimated from the data; all parameters are fitted jointly.
 A rotary file (a joint: x[rad] or x[deg], v[rad/s] or v[rpm], F[N m]; --rotary when the
 header has no units) is fitted the same way and reported in rad, rad/s and N m.
+A file of several joints (q1..qN, dq1..dqN, tau1..tauN, or a joint column) is fitted
+joint by joint, with a table of all joints at the end.
 
 examples:
   jaxfric fit run1.csv --model two-state
