@@ -53,6 +53,13 @@ def split(source: str, parsed, columns, units: dict, error) -> tuple[dict, bool]
     ``{"q2": "deg"}`` or ``{"x": "deg"}``) become header units per joint; `error` makes the
     exception to raise. `robot_names` tells whether q/dq/tau names were used."""
     header_unit = dict(parsed)
+    known = set(columns) | {PREFIX.get(n, n) for n in columns} | {
+        h[0] for n in columns if (h := numbered(n))} | {PREFIX[h[0]] for n in columns
+                                                       if (h := numbered(n))}
+    for name in units:
+        if name not in known:
+            raise error(f"{source}: a unit was given for column {name!r}, which is not in "
+                        "the data")
     if joint_layout(columns) == "long":
         return _split_long(source, columns, header_unit, units, error), False
     joints: dict[int, dict] = {}
