@@ -87,8 +87,10 @@ def parse_header(source: str, names: list[str]) -> list[tuple[str, str | None]]:
     for i, raw in enumerate(names):
         m = _HEADER.match(raw)
         if m is None:
+            cell = raw if len(raw) <= 40 else raw[:40] + "..."
             raise _error(
-                f"{source}: header cell {i + 1} ({raw!r}) is not a column name like 'x' or 'x[mm]'"
+                f"{source}: header cell {i + 1} ({cell!r}) is not a column name like 'x' or "
+                "'x[mm]'"
             )
         parsed.append((m.group(1), m.group(2) or None))
     seen = set()
@@ -128,22 +130,43 @@ def read_csv(path: Path, standard: frozenset) -> tuple[list, dict, list[str]]:
     streamed; text columns outside `standard` are skipped with a note."""
     source = str(path)
     check_path(path)
-    with _open(path, "r", encoding="utf-8-sig", errors="replace", newline="") as f:
-        lines = (ln for ln in f if ln.strip() and not ln.lstrip().startswith("#"))
-        first = next(lines, None)
-        if first is None:
-            raise _error(f"{source}: the file is empty")
-        rows = _splitter(first)(itertools.chain([first], lines))
-        header = [h.strip() for h in next(rows)]
-        while header and not header[-1]:
-            header.pop()  # a trailing separator
-        if header and all(is_number(h) for h in header if h):
-            raise _error(
-                f"{source}: no header row; the first line must name the columns, e.g. "
-                "'t,x,F' (units in brackets: 't[s],x[mm],F[N]')"
-            )
-        parsed = parse_header(source, header)
-        return _read_body(source, parsed, rows, standard)
+    _refuse_binary(path)
+    try:
+        with _open(path, "r", encoding="utf-8-sig", errors="replace", newline="") as f:
+            return _read_text(source, f, standard)
+    except csv.Error as e:
+        raise _error(f"{source}: not a readable CSV file ({e})") from None
+    except OSError as e:
+        raise _error(f"{source}: cannot be read ({e.strerror or e})") from None
+
+
+def _read_text(source, f, standard):
+    lines = (ln for ln in f if ln.strip() and not ln.lstrip().startswith("#"))
+    first = next(lines, None)
+    if first is None:
+        raise _error(f"{source}: the file is empty")
+    rows = _splitter(first)(itertools.chain([first], lines))
+    header = [h.strip() for h in next(rows)]
+    while header and not header[-1]:
+        header.pop()  # a trailing separator
+    if header and all(is_number(h) for h in header if h):
+        raise _error(
+            f"{source}: no header row; the first line must name the columns, e.g. "
+            "'t,x,F' (units in brackets: 't[s],x[mm],F[N]')"
+        )
+    parsed = parse_header(source, header)
+    return _read_body(source, parsed, rows, standard)
+
+
+def _refuse_binary(path: Path) -> None:
+    """A text reader given a binary file would print its bytes in the error: name it."""
+    with _open(path, "rb") as f:
+        head = f.read(4096)
+    if head[:2] == b"PK":
+        raise _error(f"{path}: is a zip archive, not a text (CSV) file; an .npz file must "
+                     "be named .npz")
+    if b"\x00" in head or head[:6] == b"\x93NUMPY":
+        raise _error(f"{path}: is binary data, not a text (CSV) file")
 
 
 def _read_body(source, parsed, rows, standard):

@@ -217,3 +217,17 @@ def test_wrong_npz_from_python_is_a_data_error(tmp_path):
     np.savez(tmp_path / "two_d.npz", t=np.zeros((20, 2)), x=np.zeros(20), F=np.zeros(20))
     with pytest.raises(DataError, match=r"column 't' must be 1-D, got shape \(20, 2\)"):
         data.load(tmp_path / "two_d.npz")
+
+
+def test_binary_or_unparseable_file_named_csv(tmp_path):
+    t, x, F = _signal()
+    np.savez(tmp_path / "a.npz", t=t, x=x, F=F)
+    os.replace(tmp_path / "a.npz", tmp_path / "zip.csv")
+    with pytest.raises(DataError, match=r"zip\.csv: is a zip archive, not a text \(CSV\) file"):
+        data.load(tmp_path / "zip.csv")
+    (tmp_path / "bin.csv").write_bytes(b"\x7fELF\x02\x01\x01\x00" + bytes(100))
+    with pytest.raises(DataError, match=r"bin\.csv: is binary data"):
+        data.load(tmp_path / "bin.csv")
+    (tmp_path / "wide.csv").write_text("t,x,F\n1," + "9" * 200_000 + ",3\n")
+    with pytest.raises(DataError, match=r"wide\.csv: not a readable CSV file \(field larger"):
+        data.load(tmp_path / "wide.csv")
