@@ -27,6 +27,26 @@ _NUMBERED = re.compile(r"^(q|dq|ddq|tau_u|tau|x|v|a|F|u)(\d+)$")
 JOINT_COLUMN = "joint"
 
 
+#: Robot names of one joint's columns -> standard column (used when the standard name is
+#: absent); all but ``time`` make the file rotary unless its units say otherwise.
+ALIASES = {"q": "x", "dq": "v", "qd": "v", "ddq": "a", "qdd": "a", "tau": "F", "tau_f": "F",
+           "tau_u": "u", "time": "t"}
+
+
+def rename_aliases(parsed, columns: dict, units: dict):
+    """``(parsed, columns, units, notes, robot)`` with robot names (`ALIASES`) renamed to
+    the standard ones where the standard column is absent; `robot` tells whether a joint's
+    name (not ``time``) was among them."""
+    rename = {a: c for a, c in ALIASES.items() if a in columns and c not in columns}
+    if not rename:
+        return parsed, columns, units, [], False
+    parsed = [(rename.get(n, n), u) for n, u in parsed]
+    columns = {rename.get(n, n): v for n, v in columns.items()}
+    units = {rename.get(n, n): u for n, u in units.items()}
+    notes = [f"column {a!r} read as {c!r}" for a, c in rename.items()]
+    return parsed, columns, units, notes, any(a != "time" for a in rename)
+
+
 def numbered(name: str) -> tuple[str, int] | None:
     """``("q", 3)`` for ``"q3"``; ``None`` for a name that is not a numbered column."""
     m = _NUMBERED.match(name)

@@ -327,10 +327,12 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
         raise DataError(f"{source}: holds several joints ({layout} layout: "
                         f"{', '.join(list(columns)[:4])}, ...); read it with "
                         "jaxfric.data.load_joints (the command line fits each joint)")
+    parsed, columns, units, renamed, robot = _joints.rename_aliases(parsed, columns,
+                                                                    dict(units or {}))
     header_unit = dict(parsed)
-    declared = _declared(source, columns, header_unit, dict(units or {}))
-    kind = _decide_kind(source, declared, kind, default_kind)
-    notes = [*read_notes, *_to_si(source, columns, declared, kind)]
+    declared = _declared(source, columns, header_unit, units)
+    kind = _decide_kind(source, declared, kind, _units.ROTARY if robot else default_kind)
+    notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
     _check(source, columns, require_force, kind)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal")},

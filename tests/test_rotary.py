@@ -257,3 +257,16 @@ def test_load_joints_layouts_and_units():
         data.load({"t": t, "q1": x, "tau1": F})
     with pytest.raises(data.DataError, match="one joint only"):
         data.load_joints({"t": t, "x": x, "F": F})
+
+
+def test_one_joint_with_robot_names(tmp_path):
+    t, x, v, F = _joint(300)
+    path = _write(tmp_path / "j.csv", "time,q[deg],dq,tau", (t, np.degrees(x), v, F))
+    m = data.load(path)
+    assert m.kind == "rotary"  # the robot names say so
+    np.testing.assert_allclose(m.x, x, rtol=1e-14)
+    np.testing.assert_array_equal(m.v, v)
+    np.testing.assert_array_equal(m.F, F)
+    assert "column 'q' read as 'x'" in m.notes and "column 'time' read as 't'" in m.notes
+    both = data.load({"t": t, "x": x / 10, "F": F, "tau": 2 * F})  # F present: tau is extra
+    assert both.kind == "linear" and "tau" in both.extra
