@@ -213,8 +213,13 @@ def header_names(path: Path) -> list[str]:
         except (zipfile.BadZipFile, OSError):
             return []
     else:
+        _refuse_binary(path)
         with _open(path, "r", encoding="utf-8-sig", errors="replace", newline="") as f:
-            first = next((ln for ln in f if ln.strip() and not ln.lstrip().startswith("#")), "")
+            first = ""
+            while not first.strip() or first.lstrip().startswith("#"):
+                first = f.readline(1 << 20)  # a header is short; never read a file whole
+                if not first:
+                    break
         cells = next(iter(_splitter(first)([first])), []) if first else []
     return [m.group(1) for c in cells if (m := _HEADER.match(c.strip()))]
 

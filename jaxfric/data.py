@@ -210,8 +210,9 @@ def _to_si(source: str, columns: dict[str, np.ndarray], declared: dict[str, str]
         factor = _units.unit_factor(name, unit, kind)
         if factor is None:
             quantity = _units.QUANTITY[kind][name]
+            article = "an" if quantity[0] in "aeiou" else "a"
             raise DataError(
-                f"{source}: column {name!r}: unknown unit {unit!r} for a {quantity}; "
+                f"{source}: column {name!r}: unknown unit {unit!r} for {article} {quantity}; "
                 f"use one of {', '.join(UNITS[quantity])}"
             )
         if factor != 1.0:

@@ -151,7 +151,7 @@ def test_kind_from_units_flag_and_contradictions():
         data.load({"t": j["t"], "x[rad]": j["x"], "F[N]": j["F"]})
     with pytest.raises(DataError, match="asked for a linear file, but its units are rotary"):
         data.load({"t": j["t"], "x[deg]": j["x"], "F": j["F"]}, kind="linear")
-    with pytest.raises(DataError, match="unknown unit 'furlong' for a angle"):
+    with pytest.raises(DataError, match="unknown unit 'furlong' for an angle"):
         data.load({"t": j["t"], "x[furlong]": j["x"], "F": j["F"]}, kind="rotary")
 
 
