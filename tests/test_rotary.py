@@ -104,8 +104,10 @@ def slow_runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("rotary_slow")
     rad, deg, _, _ = _files(tmp)
     out = {k: str(tmp / k) for k in ("cmp.json", "diag.json", "report", "robot_diag.json",
-                                     "robot_report")}
+                                     "robot_report", "robot_cmp.json")}
     return _run({
+        "compare_robot": ["compare", str(tmp / "robot.csv"), "--models", "tustin",
+                          "--max-steps", "10", "--json", out["robot_cmp.json"]],
         "diagnose_robot": ["diagnose", str(tmp / "robot.csv"), "--model", "tustin",
                            "--max-steps", "10", "--json", out["robot_diag.json"],
                            "--report", out["robot_report"]],
@@ -150,7 +152,7 @@ def test_compare_and_diagnose_speak_rotary(slow_runs):
     res, out = slow_runs
     for name, r in res.items():
         assert r["rc"] == 0, (name, r["stderr"])
-    texts = _texts(res, out, ("cmp.json", "diag.json", "robot_diag.json"))
+    texts = _texts(res, out, ("cmp.json", "diag.json", "robot_diag.json", "robot_cmp.json"))
     with open(f"{out['report']}/report.html") as f:
         texts["report.html"] = f.read()
     for what, text in texts.items():
@@ -232,6 +234,9 @@ def test_several_joints_are_diagnosed(slow_runs):
     assert "diagnosis per joint (RMSE in N m)" in res["diagnose_robot"]["stdout"]
     with open(f"{out['robot_report']}/joint_2/report.html") as f:
         assert "N m" in f.read()
+    cmp = _json(out["robot_cmp.json"])
+    assert list(cmp["joints"]) == ["joint 1", "joint 2"]
+    assert cmp["joints"]["joint 2"]["tustin"]["units"]["sigma2"] == "N m s/rad"
 
 
 def test_load_joints_layouts_and_units():

@@ -261,16 +261,30 @@ def run_simulate(args) -> int:
 
 
 def run_compare(args) -> int:
-    from .._regimes import regime_errors, regimes
-
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    m = load_for_cli(args, log)
-    if m.F is None:
-        raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
     kinds = [MODEL_NAMES.get(k.strip()) for k in args.models.split(",")]
     if None in kinds:
         raise _data.DataError(f"--models {args.models!r}: choose from two-state, gms, lugre, "
                               "tustin")
+    if _data.joint_layout(args.file):
+        from .joints import compare_joints
+
+        return compare_joints(args, kinds, log, compare_measurement)
+    m = load_for_cli(args, log)
+    results = compare_measurement(args, kinds, m, log)
+    if args.json:
+        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def compare_measurement(args, kinds, m, log) -> dict:
+    """Fit each model of `kinds` to `m` and print their RMSE per regime; returns
+    ``{model: result JSON with its "regimes"}``."""
+    from .._regimes import regime_errors, regimes
+
+    if m.F is None:
+        raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
     masks = regimes(m.t, m.x, m.v)
     rows, results = {}, {}
     for kind in kinds:
@@ -286,7 +300,4 @@ def run_compare(args) -> int:
     for kind, errs in rows.items():
         log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"
                                     for n in names))
-    if args.json:
-        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
-        log(f"JSON written to {args.json}")
-    return 0
+    return results

@@ -1,5 +1,5 @@
-"""``jaxfric fit`` and ``jaxfric diagnose`` on a file of several joints: each joint is
-fitted (diagnosed) on its own, with its own data-derived start, and the results are
+"""``jaxfric fit``, ``diagnose`` and ``compare`` on a file of several joints: each joint is
+fitted (diagnosed, compared) on its own, with its own data-derived start, and the results are
 printed per joint, then side by side in one table; the JSON holds one result per joint.
 
 The joints are fitted one after the other rather than by `fitting.fit_batch`: a batch
@@ -95,5 +95,19 @@ def diagnose_joints(args, kind: str, log, diagnose_measurement) -> int:
     log(f"\ndiagnosis per joint (RMSE in {unit}):\n" + "\n".join(rows))
     if args.json:
         write_json(args.json, {"file": str(args.file), "joints": out})
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def compare_joints(args, kinds, log, compare_measurement) -> int:
+    """`compare_measurement` on each joint; the JSON holds one comparison per joint."""
+    joints = load_joints_for_cli(args, log)
+    out = {}
+    for name, m in joints.items():
+        log(f"\n=== {name} ===")
+        out[name] = compare_measurement(args, kinds, m, log)
+    if args.json:
+        write_json(args.json, {"file": str(args.file), "kind": next(iter(joints.values())).kind,
+                               "joints": out})
         log(f"JSON written to {args.json}")
     return 0
