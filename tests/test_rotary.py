@@ -81,12 +81,14 @@ def runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("rotary")
     rad, deg, bare, slide = _files(tmp)
     out = {k: str(tmp / k) for k in ("fit_rad.json", "fit_deg.json", "sim.csv", "fit.png",
-                                     "robot.json", "wrist.json")}
+                                     "robot.json", "wrist.json", "robot_sim.csv")}
     return _run({
         "fit_robot": ["fit", str(tmp / "robot.csv"), "--model", "tustin", "--json",
                       out["robot.json"]],
         "fit_wrist": ["fit", str(tmp / "wrist.csv"), "--model", "tustin", "--json",
                       out["wrist.json"]],
+        "simulate_robot": ["simulate", str(tmp / "robot.csv"), "--params", out["robot.json"],
+                           "--out", str(tmp / "robot_sim.csv")],
         "fit_rad": ["fit", str(rad), "--model", "tustin", "--json", out["fit_rad.json"],
                     "--plot", out["fit.png"]],
         "fit_deg": ["fit", str(deg), "--model", "tustin", "--json", out["fit_deg.json"]],
@@ -223,6 +225,20 @@ def test_several_joints_are_fitted_each_as_if_alone(runs):
     table = said.split("tustin per joint:")[1].splitlines()
     assert "N m s/rad" in table[2] and table[3].startswith("joint 1")
     assert table[4].startswith("joint 2")
+
+
+def test_several_joints_are_simulated_each_with_its_model(runs):
+    res, out = runs
+    assert res["simulate_robot"]["rc"] == 0, res["simulate_robot"]["stderr"]
+    with open(out["robot_sim.csv"]) as f:
+        header = f.readline().strip()
+    assert header == ("t[s],x1[rad],v1[rad/s],F_model1[N m],F1[N m],"
+                      "x2[rad],v2[rad/s],F_model2[N m],F2[N m]")
+    sim = np.loadtxt(out["robot_sim.csv"], delimiter=",", skiprows=1)
+    fits = _json(out["robot.json"])["joints"]
+    for i, name in ((1, "joint 1"), (2, "joint 2")):
+        rmse = float(np.sqrt(np.mean((sim[:, 4 * i - 1] - sim[:, 4 * i]) ** 2)))
+        assert math.isclose(rmse, fits[name]["rmse"], rel_tol=1e-6), name
 
 
 @pytest.mark.slow
