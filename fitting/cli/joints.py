@@ -1,6 +1,7 @@
 """``jaxfric fit``, ``diagnose``, ``compare`` and ``simulate`` on a file of several joints:
 each joint is fitted (diagnosed, compared, simulated) on its own, with its own data-derived
-start, and the results are printed per joint, then side by side in one table; the JSON holds one result per joint.
+start, and the results are printed per joint, then side by side in one table; the JSON
+holds one result per joint.
 
 The joints are fitted one after the other rather than by `fitting.fit_batch`: a batch
 starts every dataset from one model, while joints of one robot differ by orders of
