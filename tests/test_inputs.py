@@ -112,6 +112,7 @@ def cli_results(tmp_path_factory):
         "max_steps_negative": [*fit, "--max-steps", "-1", str(good)],
         "window_nan": ["diagnose", "--velocity-window", "nan", str(good)],
         "window_negative": ["diagnose", "--velocity-window", "-0.01", str(good)],
+        "kind_conflict": [*fit, "--rotary", "--kind", "linear", str(good)],
         "params_list": ["simulate", str(good), "--params", str(params_list),
                         "--out", str(tmp / "sim.csv")],
     }
@@ -130,6 +131,7 @@ EXPECTED = {
     "max_steps_negative": "--max-steps -1: must be 0 or more",
     "window_nan": "--velocity-window nan: must be a finite time > 0",
     "window_negative": "--velocity-window -0.01: must be a finite time > 0",
+    "kind_conflict": "--rotary and --kind linear contradict each other",
     "params_list": "plist.json: 'params' must be an object of parameter names and numbers",
 }
 

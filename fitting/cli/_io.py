@@ -33,6 +33,8 @@ def check_options(args) -> None:
     steps = getattr(args, "max_steps", None)
     if steps is not None and steps < 0:
         raise _data.DataError(f"--max-steps {steps}: must be 0 or more")
+    if getattr(args, "rotary", False) and getattr(args, "kind", None) == _units.LINEAR:
+        raise _data.DataError("--rotary and --kind linear contradict each other")
     window = getattr(args, "velocity_window", None)
     if window is not None and not (math.isfinite(window) and window > 0):
         raise _data.DataError(f"--velocity-window {window}: must be a finite time > 0 "
