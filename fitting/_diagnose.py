@@ -101,6 +101,9 @@ class Diagnosis:
     model: object
     model_name: str
     velocity: str = ""  # how the velocity was obtained (`fitting._derivatives.describe`)
+    #: The velocity estimate as options (``{"method": ..., "window_s": ...}``; None for a
+    #: given velocity), so that `jaxfric simulate --params` can use the same.
+    derivatives: dict | None = None
     #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
     warnings: dict = dataclasses.field(default_factory=dict)
 
@@ -126,6 +129,7 @@ class Diagnosis:
                       "steps": [{"added": s.added, "rmse": s.rmse,
                                  "rmse_holdout": s.rmse_holdout} for s in self.steps]},
             "velocity": self.velocity,
+            "derivatives": self.derivatives,
             "warnings": self.warnings,
             "fitted_model": saved_model(self.model),
         }
@@ -415,7 +419,9 @@ def diagnose(
                                          steps[-1].fit.prediction)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
                      model=state.current, model_name=model_name or type(ctx.model).__name__,
-                     velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w})
+                     velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
+                     derivatives=None if v is not None else {"method": derivatives,
+                                                             "window_s": velocity_window})
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,
