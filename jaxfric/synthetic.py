@@ -49,9 +49,9 @@ def _central(t, y):
     return np.gradient(y, t)
 
 
-def hidden_force(name: str, t, x, v, a, base, level):
+def hidden_force(name: str, t, x, v, a, base, level, static=None):
     """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
-    level (N) of the truth, `base` its force."""
+    level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N)."""
     travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
     if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
         excess = np.maximum(np.abs(v) - 5e-3, 0.0)
@@ -79,13 +79,15 @@ def hidden_force(name: str, t, x, v, a, base, level):
         return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
     if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
         return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
-    if name == "friction_lag":  # 35 % of the level follows speed changes with tau = 0.6 s
-        target = 0.35 * np.abs(base)
+    if name == "friction_lag":  # 35 % of the friction level follows speed changes, tau 0.6 s
+        # The level is the truth's Stribeck curve |s(v)| (a speed-dependent level lagging
+        # behind the speed, as Hess and Soom measured), held while at rest.
+        target = 0.35 * static
         y = np.empty_like(target)
         y[0] = target[0]
         alpha = 1 - np.exp(-np.diff(t) / 0.6)
         for i in range(1, t.size):
-            y[i] = y[i - 1] + alpha[i - 1] * (target[i] - y[i - 1])
+            y[i] = y[i - 1] + (alpha[i - 1] * (target[i] - y[i - 1]) if v[i] != 0 else 0.0)
         return np.sign(v) * (y - target)
     raise ValueError(name)
 
@@ -115,8 +117,9 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     a = _central(t_fine, v)
     base = np.asarray(simulate(model, t_fine, x_fine, v))
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
-    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level) for h in hidden),
-                       np.zeros_like(base))
+    static = np.abs(np.asarray(model.stribeck(v)))
+    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level, static)
+                        for h in hidden), np.zeros_like(base))
     keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
     t = t_fine[keep]
