@@ -412,11 +412,9 @@ def diagnose(
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
         state.best_holdout = trial.rmse_holdout
-    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F,
-                                         baseline.fit.prediction)}
+    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F)}
     if steps:
-        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F,
-                                         steps[-1].fit.prediction)
+        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
                      model=state.current, model_name=model_name or type(ctx.model).__name__,
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},

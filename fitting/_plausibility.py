@@ -1,6 +1,6 @@
-"""Is a fitted model plausible for the right reasons? Three checks run on the model itself, by
-simulation (so they hold for every model kind, effects included), against the scale of the
-measured motion:
+"""Is a fitted model plausible for the right reasons? Three checks run on the base model (its
+added effects removed: its presliding and lag are what could take effects up), by
+simulation (so they hold for every model kind), against the scale of the measured motion:
 
 - **presliding range**: from steady sliding at the typical speed, the motion reverses; the
   travel after which the force has covered 90 % of its swing to the new sliding level.
@@ -16,8 +16,8 @@ measured motion:
   differ by more than 10 % of the sliding force level: the fit then relies on a state that
   never settles instead of on its friction curve.
 
-`steady_state` is also the static curve a report draws: the force the whole model (effects
-included, e.g. an offset) reaches after sliding at constant speed.
+`steady_state` is also the static curve a report can draw: the force the whole model
+(effects included, e.g. an offset) reaches after sliding at constant speed.
 """
 
 import numpy as np
@@ -50,13 +50,15 @@ def _sliding_speeds(v):
     return float(lo), float(mid), float(hi)
 
 
-def steady_state(model, speeds, duration: float, samples: int = 2000) -> np.ndarray:
+def steady_state(model, speeds, duration: float, samples: int = 2000,
+                 at: float = 0.0) -> np.ndarray:
     """The force (N) `model` reaches after sliding at each of `speeds` (m/s, signed) for
-    `duration` seconds from rest."""
+    `duration` seconds from rest, arriving at position `at` (m; where position-dependent
+    effects are evaluated)."""
     t = np.linspace(0.0, duration, samples)
     out = []
     for s in np.asarray(speeds, float):
-        x = s * t
+        x = at + s * (t - duration)
         v = np.full_like(t, s)
         out.append(float(np.asarray(jaxfric.simulate(model, t, x, v))[-1]))
     return np.asarray(out)
@@ -98,10 +100,14 @@ def _lag_time(model, v_lo, v_hi, settle):
     return float(t[k - 1 + reached[0]] - t[k - 1]) if reached.size else float(t[-1] - t[k - 1])
 
 
-def plausibility(model, t, x, v, F, prediction) -> list[str]:
+def plausibility(model, t, x, v, F) -> list[str]:
     """Plain-words warnings about `model` fitted to ``(t, x, v, F)`` (SI) with its
-    `prediction` (N): see the module docstring. Empty when nothing is implausible."""
-    t, x, v, F, pred = (np.asarray(a, np.float64) for a in (t, x, v, F, prediction))
+    prediction: see the module docstring. Empty when nothing is implausible. The
+    checks are on the base model (its added effects removed): its presliding and lag are
+    what could take up effects."""
+    t, x, v, F = (np.asarray(a, np.float64) for a in (t, x, v, F))
+    model = model.without_effects()
+    pred = np.asarray(jaxfric.simulate(model, t, x, v))
     stroke, stroke_time = _strokes(t, x, v)
     lo, mid, hi = _sliding_speeds(v)
     level = float(np.median(np.abs(F[np.abs(v) >= mid]))) if np.any(np.abs(v) >= mid) else 1.0
