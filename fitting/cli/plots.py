@@ -79,7 +79,7 @@ def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
     ax[1].legend(fontsize=8)
     save(fig, "time.png")
 
-    save(_loops_figure(plt, x, v, F, after, d, axes), "loops.png")
+    save(_loops_figure(plt, x, v, F, after, d, axes, float(np.ptp(t))), "loops.png")
 
     fig, ax = plt.subplots(2, 2, figsize=(11, 7))
     r0, r1 = F - before, F - after
@@ -94,7 +94,7 @@ def plot_diagnosis(out_dir: Path, m, d) -> list[str]:
     return files
 
 
-def _loops_figure(plt, x, v, F, after, d, axes):
+def _loops_figure(plt, x, v, F, after, d, axes, duration):
     """Force against position and against velocity, with the model's static curve."""
     (xs, xlabel), (vs_, vlabel) = axes["x"], axes["v"]
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
@@ -103,12 +103,14 @@ def _loops_figure(plt, x, v, F, after, d, axes):
     ax[0].set(xlabel=xlabel, ylabel=axes["F"], title="friction vs position")
     ax[0].legend(fontsize=8)
     ax[1].plot(v * vs_, F, ".", ms=1, color="0.5", label="measured")
-    vs = np.linspace(v.min(), v.max(), 400)
-    base_model = d.final.fit.model
-    base_model = getattr(base_model, "base", base_model)
-    if hasattr(base_model, "stribeck"):
-        static = np.asarray(base_model.stribeck(vs)) + float(base_model.sigma2) * vs
-        ax[1].plot(vs * vs_, static, color="C3", label="model s(v) + sigma2 v")
+    # The final model's actual steady state (effects and offset included), at mid travel.
+    from .._plausibility import steady_state
+
+    vs = np.linspace(v.min(), v.max(), 121)
+    vs = vs[vs != 0]
+    static = steady_state(d.final.fit.model, vs, duration=duration or 1.0,
+                          at=0.5 * (x.min() + x.max()))
+    ax[1].plot(vs * vs_, static, color="C3", label="final model's steady state (mid travel)")
     ax[1].set(xlabel=vlabel, ylabel=axes["F"], title="friction vs velocity")
     ax[1].legend(fontsize=8)
     return fig
