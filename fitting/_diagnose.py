@@ -29,7 +29,8 @@ Then, for every candidate effect of `jaxfric.effects`:
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
-values), everything is refitted jointly on the training set (twice: from the fitted model,
+values; of significant effects within 10 % of the best score, the one with the larger
+``t``), everything is refitted jointly on the training set (twice: from the fitted model,
 and from the starting model with the effects, which is not bent by the missing effect; the
 better training fit is kept, and a fit that stops at its step limit is restarted while
 that still lowers its error by more than 1 %, up to five times),
@@ -277,6 +278,12 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     """Add the first significant candidate whose refit holds up: ``(accepted, step,
     residual)``, or ``(None, None, None)``."""
     tries = [c for c in ranking if c.significant]
+    if tries:
+        # Two effects that explain almost the same share (within 10 %: an offset and an
+        # asymmetry during sliding) are told apart by how consistent their evidence is.
+        close = [c for c in tries if c.score >= 0.9 * tries[0].score]
+        tries = (sorted(close, key=lambda c: c.t_stat, reverse=True)
+                 + [c for c in tries if c.score < 0.9 * tries[0].score])
     if ranking and not ranking[0].significant and ranking[0].score >= 4 * ctx.min_score:
         # The largest score, but not consistent: often a second missing effect
         # confounding the linear screen. Try it first; the refit must confirm it where it
