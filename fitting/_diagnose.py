@@ -29,11 +29,12 @@ Then, for every candidate effect of `jaxfric.effects`:
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
-values; of significant effects within 10 % of the best score, the one with the larger
-``t``), everything is refitted jointly on the training set (twice: from the fitted model,
-and from the starting model with the effects, which is not bent by the missing effect; the
-better training fit is kept, and a fit that stops at its step limit is restarted while
-that still lowers its error by more than 1 %, up to five times),
+values; significant effects within 10 % of the best score are each refitted and the
+lower held-out error decides), everything is refitted jointly on the training set
+(twice: from the fitted model, and from the starting model with the effects, which is not
+bent by the missing effect; the better training fit is kept, and a fit that stops at its
+step limit is restarted while that still lowers its error by more than 1 %, up to five
+times),
 and the ranking repeats on the new residual until nothing significant is left. The
 held-out RMSE after each addition is reported; an addition whose refit removes less than
 ``min_score/2`` of the held-out SSE is undone and marked not significant, and the next
@@ -274,39 +275,59 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
     return trial, trial_resid, enough, ev.t, ev.batches
 
 
+def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
+    """Add `chosen` alone and refit: ``(step, residual)`` when the refit holds up (removes
+    enough held-out SSE and, for a candidate not yet shown consistent, is consistent where
+    it acts), else ``None`` with the reason in its evidence."""
+    ctx.log(f"adding {chosen.name} and refitting ...")
+    trial, trial_resid, enough, t_refit, n_blocks = _refit(ctx, state, (chosen.effect,),
+                                                           [chosen.name])
+    if enough and (chosen.significant or t_refit >= ctx.min_t):
+        if not chosen.significant:
+            chosen.significant, chosen.t_stat = True, t_refit
+            chosen.evidence += (f"; confirmed by the joint refit, consistent over "
+                                f"{n_blocks} held-out batches (t = {t_refit:.1f})")
+        return trial, trial_resid
+    removed = 1 - trial.rmse_holdout**2 / state.best_holdout**2
+    why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
+           f"{50 * ctx.min_score:.3g} %)" if not enough else
+           f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, needs "
+           f"{ctx.min_t:g})")
+    ctx.log(f"  {chosen.name} not added: {why}")
+    chosen.evidence += f"; not added: {why}"
+    chosen.significant = False
+    return None
+
+
 def _try_singles(ctx: _Context, state: _State, ranking):
     """Add the first significant candidate whose refit holds up: ``(accepted, step,
-    residual)``, or ``(None, None, None)``."""
+    residual)``, or ``(None, None, None)``. Significant candidates whose scores are within
+    10 % of the best (an offset and an asymmetry during sliding explain almost the same
+    share) are all refitted, and the held-out error of the refits decides."""
     tries = [c for c in ranking if c.significant]
-    if tries:
-        # Two effects that explain almost the same share (within 10 %: an offset and an
-        # asymmetry during sliding) are told apart by how consistent their evidence is.
-        close = [c for c in tries if c.score >= 0.9 * tries[0].score]
-        tries = (sorted(close, key=lambda c: c.t_stat, reverse=True)
-                 + [c for c in tries if c.score < 0.9 * tries[0].score])
+    close = [c for c in tries if c.score >= 0.9 * tries[0].score][:3] if tries else []
     if ranking and not ranking[0].significant and ranking[0].score >= 4 * ctx.min_score:
         # The largest score, but not consistent: often a second missing effect
         # confounding the linear screen. Try it first; the refit must confirm it where it
         # acts.
-        tries = [ranking[0], *tries]
-    for chosen in tries:
-        ctx.log(f"adding {chosen.name} and refitting ...")
-        trial, trial_resid, enough, t_refit, n_blocks = _refit(ctx, state, (chosen.effect,),
-                                                               [chosen.name])
-        if enough and (chosen.significant or t_refit >= ctx.min_t):
-            if not chosen.significant:
-                chosen.significant, chosen.t_stat = True, t_refit
-                chosen.evidence += (f"; confirmed by the joint refit, consistent over "
-                                    f"{n_blocks} held-out batches (t = {t_refit:.1f})")
+        out = _holds_up(ctx, state, ranking[0])
+        if out is not None:
+            return [ranking[0]], *out
+    if len(close) > 1:
+        held = [(c, out) for c in close if (out := _holds_up(ctx, state, c)) is not None]
+        if held:
+            chosen, (trial, trial_resid) = min(held, key=lambda h: h[1][0].rmse_holdout)
+            for c, (other, _) in held:
+                if c is not chosen:
+                    c.evidence += (f"; not added: {chosen.name}, of nearly the same score, "
+                                   f"fits the held-out data better (held-out RMSE "
+                                   f"{trial.rmse_holdout:.4g} N against "
+                                   f"{other.rmse_holdout:.4g} N)")
             return [chosen], trial, trial_resid
-        removed = 1 - trial.rmse_holdout**2 / state.best_holdout**2
-        why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
-               f"{50 * ctx.min_score:.3g} %)" if not enough else
-               f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, needs "
-               f"{ctx.min_t:g})")
-        ctx.log(f"  {chosen.name} not added: {why}")
-        chosen.evidence += f"; not added: {why}"
-        chosen.significant = False
+    for chosen in tries[len(close) if len(close) > 1 else 0:]:
+        out = _holds_up(ctx, state, chosen)
+        if out is not None:
+            return [chosen], *out
     return None, None, None
 
 
