@@ -1,6 +1,12 @@
 """Export identified models to where they are used: `to_c` writes dependency-free C99 for a
-controller's per-sample loop (`jaxfric.export.c`)."""
+controller's per-sample loop (`jaxfric.export.c`); `compile_c` compiles it with the system
+C compiler and calls it through ``ctypes`` (`jaxfric.export._compiled`)."""
 
+from ._compiled import (
+    compile_c as compile_c,
+    CompiledModel as CompiledModel,
+    find_compiler as find_compiler,
+)
 from ._effects_c import EXPORTABLE as EXPORTABLE
 from ._parts import ExportError as ExportError
 from .c import c_code as c_code, to_c as to_c

@@ -1,0 +1,237 @@
+"""The C export (`jaxfric.export.to_c`) compiled with the system C compiler reproduces
+`jaxfric.simulate` sample by sample (to 1e-9 of max|F|) for every model kind and every
+exportable effect, on motions with dense reversals, nested loops, standstill and long
+sliding; what has no C translation is refused by name."""
+
+import itertools
+import json
+import re
+import subprocess
+import warnings
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxfric
+from jaxfric import effects as fx, GMS, NormalizedPaperShape, paper
+from jaxfric.export import compile_c, EXPORTABLE, ExportError, find_compiler, to_c
+
+from .helpers import NESTED, power_two_state, UM
+
+
+CC = find_compiler()
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler: 'cc' is not on the PATH")
+
+TOL = 1e-9  # of max |F|
+
+
+def _segments(rng):
+    """Position increments (m): rest, dense random reversals with pauses, nested loops,
+    rest, long sliding strokes at several speeds, loops at the end of a stroke."""
+    rest = np.zeros(30)
+    dense = rng.normal(0.0, 0.4 * UM, 500) * (rng.uniform(size=500) > 0.2)
+    loops = np.diff(np.concatenate(
+        [np.linspace(a, b, max(2, round(abs(b - a) / 2.0)) + 1)[1:]
+         for a, b in itertools.pairwise(NESTED)])) * UM
+    slide = np.concatenate([np.full(400, 10 * UM), np.full(300, -3 * UM), rest,
+                            np.full(250, -8 * UM), np.full(200, 0.5 * UM)])
+    tail = rng.normal(0.0, 2 * UM, 150)
+    return np.concatenate([rest, dense, loops, rest, slide, tail])
+
+
+def trajectory(seed: int, velocity: str = "backward"):
+    """``(t, x, v)`` from t = 5 s, irregularly sampled (0.5-1.5 ms); `velocity`
+    ``"backward"`` (the backward difference, as `simulate` derives it) or ``"central"`` (a
+    zero-phase estimate whose sign can disagree with the step at reversals)."""
+    rng = np.random.default_rng(seed)
+    dx = _segments(rng)
+    t = 5.0 + np.concatenate([[0.0], np.cumsum(rng.uniform(0.5e-3, 1.5e-3, dx.size))])
+    x = 1e-3 + np.concatenate([[0.0], np.cumsum(dx)])
+    if velocity == "backward":
+        v = np.r_[0.0, np.diff(x) / np.diff(t)]
+    else:
+        v = np.gradient(x, t)
+        v[np.abs(v) < 1e-7] = 0.0  # some exact rests
+    return t, x, v
+
+
+MOTIONS = [trajectory(1), trajectory(2, "central")]
+
+
+def _normalized():
+    m = paper.two_state()
+    return eqx.tree_at(lambda m: m.shape, m,
+                       NormalizedPaperShape.from_paper(m.shape, m.stribeck.Fs))
+
+
+def _small_curvature():
+    m = _normalized()
+    return eqx.tree_at(lambda m: m.shape.curvature, m, jnp.asarray(3e-7))
+
+
+MODELS = {
+    "two_state_paper": paper.two_state,
+    "two_state_normalized": _normalized,
+    "two_state_normalized_series": _small_curvature,
+    "two_state_power": power_two_state,
+    "two_state_stack3": lambda: paper.two_state(stack_size=3),
+    "gms5": paper.gms5,
+    "gms_from_shape": lambda: GMS.from_shape(paper.shape(), paper.stribeck(), paper.SIGMA2,
+                                             paper.C, 12),
+    "lugre": paper.lugre,
+    "tustin": paper.tustin,
+}
+
+
+def _effects(x):
+    """One instance of every exportable effect, with clearly nonzero parameters."""
+    return {
+        "viscous": fx.Viscous(c_visc=40.0),
+        "quadratic_drag": fx.QuadraticDrag(c_drag=3e3),
+        "stribeck": fx.StribeckHump(dF_str=3.0, v_str=2e-3),
+        "inertia": fx.Inertia(mass=0.8),
+        "offset": fx.Offset(offset=0.7),
+        "asymmetry": fx.Asymmetry(asym=0.06),
+        "cogging": fx.Cogging(cog_sin=0.4, cog_cos=-0.3, period=150 * UM),
+        "position_dependence": fx.PositionDependence.for_travel(x, pos_1=0.05, pos_2=-0.03),
+        "position_load": fx.PositionLoad.for_travel(x, load_1=0.5, load_2=0.2),
+        "drift": fx.Drift(drift_rate=0.02),
+        "presliding": fx.Presliding(F_pre=2.0, k_pre=2e6),
+        "friction_lag": fx.FrictionLag(lag_gain=0.6, tau=0.03),
+    }
+
+
+@pytest.fixture(scope="session")
+def build(tmp_path_factory):
+    """``build(key, model)``: the compiled export of `model`, once per key per session."""
+    if CC is None:
+        pytest.skip("no C compiler: 'cc' is not on the PATH")
+    cache = {}
+
+    def get(key, model):
+        if key not in cache:
+            cache[key] = compile_c(model, tmp_path_factory.mktemp(key), cc=CC)
+        return cache[key]
+
+    return get
+
+
+def _reference(model, t, x, v):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jaxfric.StackOverflowWarning)
+        return np.asarray(jaxfric.simulate(model, t, x, v))
+
+
+def _check(compiled, model):
+    for t, x, v in MOTIONS:
+        want = _reference(model, t, x, v)
+        got = compiled.run(t, x, v)
+        scale = np.max(np.abs(want))
+        assert scale > 0.5
+        err = np.abs(got - want)
+        assert np.max(err) <= TOL * scale, (
+            f"max error {np.max(err):.3g} N at sample {int(np.argmax(err))} "
+            f"(limit {TOL * scale:.3g} N)")
+
+
+def test_motions_have_what_they_promise():
+    for _, x, v in MOTIONS:
+        d = np.sign(v)
+        moving = d[d != 0]
+        assert np.count_nonzero(moving[1:] != moving[:-1]) > 100  # dense reversals
+        assert np.count_nonzero(v == 0) > 50  # standstill
+        assert np.ptp(x) > 3e-3  # long sliding (l1*Fs is ~0.1 mm)
+
+
+@needs_cc
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_models_match_simulate(build, name):
+    model = MODELS[name]()
+    _check(build(name, model), model)
+
+
+@needs_cc
+def test_small_stack_overflows_in_both():
+    """The 3-entry stack really overflows on these motions (so that path is compared)."""
+    t, x, v = MOTIONS[0]
+    with pytest.warns(jaxfric.StackOverflowWarning):
+        jaxfric.simulate(paper.two_state(stack_size=3), t, x, v)
+
+
+@needs_cc
+@pytest.mark.parametrize("name", EXPORTABLE)
+def test_each_effect_matches_simulate(build, name):
+    model = paper.lugre() + _effects(MOTIONS[0][1])[name]
+    _check(build(f"lugre_{name}", model), model)
+
+
+@needs_cc
+@pytest.mark.parametrize("base", ["two_state_paper", "gms5"])
+def test_all_effects_together_match_simulate(build, base):
+    model = MODELS[base]() + tuple(_effects(MOTIONS[0][1]).values())
+    _check(build(f"{base}_all_effects", model), model)
+
+
+def test_every_effect_is_exportable_or_named_in_the_test():
+    assert set(EXPORTABLE) == set(fx.EFFECTS)
+    assert set(_effects(np.zeros(2))) == set(EXPORTABLE)
+
+
+@needs_cc
+def test_generated_code_is_plain_c99(tmp_path):
+    """Only <math.h>, no allocation, warning-free under -Wall -Wextra -pedantic, and the
+    fitted values appear as named constants with units."""
+    model = paper.two_state() + (fx.Cogging(cog_sin=0.1, cog_cos=0.0, period=1e-3),)
+    header, source = to_c(model, tmp_path)
+    text = header.read_text() + source.read_text()
+    assert sorted(set(re.findall(r"#include\s*(\S+)", text))) == ['"jaxfric_model.h"',
+                                                                   "<math.h>"]
+    for word in ("malloc", "calloc", "free(", "static double jf_state"):
+        assert word not in text
+    assert re.search(r"#define JF_FS \(26\.1\) /\* stribeck\.Fs \[N\] \*/", text)
+    assert re.search(r"#define JF_COG_SIN \(0\.1\) /\* effect cogging\.cog_sin \[N\] \*/", text)
+    h = header.read_text()
+    assert "double jaxfric_step(jaxfric_state *s, double t, double x, double v);" in h
+    assert "void jaxfric_init(jaxfric_state *s, double t0, double x0);" in h
+    assert "#define JAXFRIC_STACK_SIZE 16" in h
+    run = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-c",
+                          str(source), "-o", str(tmp_path / "m.o")], capture_output=True,
+                         text=True)
+    assert run.returncode == 0, run.stderr
+
+
+def test_export_from_a_fit_json_is_the_model_export(tmp_path):
+    model = paper.lugre() + fx.Offset(offset=0.25)
+    result = tmp_path / "fit.json"
+    from jaxfric._serialize import model_to_dict
+
+    result.write_text(json.dumps({"fitted_model": model_to_dict(model), "rmse": 0.1}))
+    a = [p.read_text() for p in to_c(result, tmp_path / "a")]
+    b = [p.read_text() for p in to_c(model, tmp_path / "b")]
+    assert a == b
+
+
+class _Unknown(fx.AbstractEffect):
+    name = "made_up"
+
+    def term(self, s):
+        return s.v
+
+
+def test_unknown_effect_is_refused_by_name(tmp_path):
+    with pytest.raises(ExportError, match="made_up"):
+        to_c(paper.lugre() + _Unknown(), tmp_path)
+    assert not list(tmp_path.iterdir())  # nothing half-written
+
+
+def test_unknown_shape_and_model_are_refused(tmp_path):
+    class Wavy(jaxfric.PowerShape):
+        pass
+
+    model = eqx.tree_at(lambda m: m.shape, paper.two_state(), Wavy(l1=4e-6, n=2.0))
+    with pytest.raises(ExportError, match="Wavy"):
+        to_c(model, tmp_path)
+    with pytest.raises(ExportError, match="expected a jaxfric model"):
+        to_c(object(), tmp_path)
