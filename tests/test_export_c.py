@@ -5,8 +5,10 @@ sliding; what has no C translation is refused by name."""
 
 import itertools
 import json
+import os
 import re
 import subprocess
+import sys
 import warnings
 
 import equinox as eqx
@@ -235,3 +237,41 @@ def test_unknown_shape_and_model_are_refused(tmp_path):
         to_c(model, tmp_path)
     with pytest.raises(ExportError, match="expected a jaxfric model"):
         to_c(object(), tmp_path)
+
+
+def _cli(*args):
+    env = {**os.environ, "JAXFRIC_CACHE_DIR": ""}
+    return subprocess.run([sys.executable, "-m", "fitting.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=300, env=env)
+
+
+def test_cli_export_writes_the_same_code_as_to_c(tmp_path):
+    from jaxfric._serialize import model_to_dict
+
+    model = paper.two_state() + fx.Drift(drift_rate=0.01)
+    result = tmp_path / "diag.json"
+    result.write_text(json.dumps({"fitted_model": model_to_dict(model)}))
+    r = _cli("export", result, "--c", tmp_path / "new" / "c")
+    assert r.returncode == 0, r.stderr
+    assert "jaxfric_model.c" in r.stdout
+    want = [p.read_text() for p in to_c(model, tmp_path / "ref")]
+    got = [(tmp_path / "new" / "c" / n).read_text() for n in ("jaxfric_model.h",
+                                                                "jaxfric_model.c")]
+    assert got == want
+
+
+@pytest.mark.parametrize("content, expected", [
+    (None, "no such file"),
+    ('{"rmse": 0.1}', "no saved model"),
+    ("{not json", "not a readable JSON file"),
+])
+def test_cli_export_bad_input_one_line_exit_2(tmp_path, content, expected):
+    result = tmp_path / "result.json"
+    if content is not None:
+        result.write_text(content)
+    r = _cli("export", result, "--c", tmp_path / "out")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("jaxfric export: error: "), r.stderr
+    assert expected in lines[0]
+    assert not (tmp_path / "out").exists()

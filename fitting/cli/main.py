@@ -224,6 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 
+    from . import export
+
+    export.add_parser(sub)
     return parser
 
 
@@ -257,6 +260,7 @@ _OUTPUTS = {
     "simulate": (("--out", "out", "file"),),
     "compare": (("--json", "json", "file"),),
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
+    "export": (("--c", "c_dir", "folder"),),
 }
 
 
