@@ -34,7 +34,14 @@ def _stribeck(model) -> Part:
 _TWO_STATE_HELPERS = """\
 #define JF_K JAXFRIC_STACK_SIZE
 
-static int jf_top(const jaxfric_state *s) { return (s->base + s->depth - 1) % JF_K; }
+/* Slot of logical entry lev (0 <= base, lev < JF_K): (base + lev) % JF_K without a division. */
+static int jf_slot(const jaxfric_state *s, int lev)
+{
+    int i = s->base + lev;
+    return i >= JF_K ? i - JF_K : i;
+}
+
+static int jf_top(const jaxfric_state *s) { return jf_slot(s, s->depth - 1); }
 
 /* Rule 1 at reversal point x_r with rest value s_r: push with wiping-out and overflow
    (TwoState._push). */
@@ -48,12 +55,12 @@ static void jf_push(jaxfric_state *s, double x_r, double s_r)
     base = wipe ? top : s->base;
     depth = (wipe ? 1 : s->depth) + 1;
     over = depth > JF_K;
-    if (over) { base = (base + 1) % JF_K; depth = JF_K; }
+    if (over) { base = base + 1 == JF_K ? 0 : base + 1; depth = JF_K; }
     if (over || (wipe && s->depth > 1)) s->zero_bottom = 0;
     s->overflow += over;
     s->base = base;
     s->depth = depth;
-    slot = (base + depth - 1) % JF_K;
+    slot = jf_top(s);
     s->mx[slot] = x_r;
     s->mh[slot] = h_r;
     s->ms[slot] = s_r;
@@ -65,7 +72,7 @@ static void jf_push(jaxfric_state *s, double x_r, double s_r)
    level 1 only onto the zero state, and xi >= theta (TwoState._close, _top_closes). */
 static int jf_closes(const jaxfric_state *s, int lev, double x, double S)
 {
-    int slot = (s->base + lev) % JF_K;
+    int slot = jf_slot(s, lev);
     return s->mclosable[slot] && (lev >= 2 || s->zero_bottom)
         && jf_div(x - s->mx[slot], S - s->ms[slot]) >= s->mtheta[slot];
 }

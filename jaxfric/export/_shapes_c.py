@@ -63,11 +63,11 @@ def _paper(shape: PaperShape, Fs: float) -> Part:
 /* PaperShape: Pi = F(X*u)/F(X), F(x) = K - a*exp(b*(x+beta)^alpha) - c*x^4, F(0) = 0. */
 static double jf_profile(double u, double *dp)
 {
-    double x = JF_X * u, q = x + JF_BETA, pw = 0.0, dpw = 0.0, e, f, df;
+    double x = JF_X * u, q = x + JF_BETA, pw = 0.0, dpw = 0.0, em1, f, df;
     if (q > 0.0) { pw = pow(q, JF_ALPHA); dpw = JF_ALPHA * pw / q; }
-    e = JF_SHAPE_B * (pw - JF_BB);
-    f = JF_AMP * expm1(e) - JF_SHAPE_C * x * x * x * x;
-    df = JF_AMP * exp(e) * JF_SHAPE_B * dpw - 4.0 * JF_SHAPE_C * x * x * x;
+    em1 = expm1(JF_SHAPE_B * (pw - JF_BB));
+    f = JF_AMP * em1 - JF_SHAPE_C * x * x * x * x;
+    df = JF_AMP * (1.0 + em1) * JF_SHAPE_B * dpw - 4.0 * JF_SHAPE_C * x * x * x;
     *dp = JF_X * df / JF_FX;
     return f / JF_FX;
 }
