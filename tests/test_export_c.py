@@ -289,3 +289,64 @@ def test_c_compensator_example_removes_most_of_the_tracking_error(tmp_path):
     without, with_ff = errors
     assert without > 1e-5  # friction visibly disturbs the PD loop
     assert with_ff < 0.05 * without
+
+
+# ---- MuJoCo (the optional extra `mujoco`) ---------------------------------------------
+
+
+def _mujoco_forces(xml: str, t, x, v):
+    """Friction force (jaxfric's sign) of the MJCF's actuator with the joint driven along
+    ``(t, x, v)`` (uniform steps equal to the model's timestep): per sample, the joint is put
+    at the sample's position and velocity, one ``mj_step`` integrates the bristle state, and
+    the force is minus the actuator's force and its damping."""
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    out = np.empty_like(t)
+    for i in range(t.size):
+        data.qpos[0], data.qvel[0] = x[i], v[i]
+        mujoco.mj_step(model, data)
+        out[i] = -(data.actuator_force[0] + data.qfrc_damper[0])
+    return out
+
+
+def _recorded_motion(dt):
+    """A 1.5 mm stroke motion with 60 um loops, resampled at `dt` (uniform), v analytic."""
+    t = np.arange(0.0, 4.0, dt)
+    w1, w2 = 2 * np.pi / 1.5, 2 * np.pi / 4.0
+    x = 60 * UM * np.sin(w1 * t) + 1.5e-3 * np.sin(w2 * t)
+    v = 60 * UM * w1 * np.cos(w1 * t) + 1.5e-3 * w2 * np.cos(w2 * t)
+    return t, x, v
+
+
+@pytest.mark.parametrize("joint", ["slide", "hinge"])
+def test_mujoco_dcmotor_matches_jaxfric_lugre_within_1_percent(tmp_path, joint):
+    pytest.importorskip("mujoco")
+    from jaxfric.export import to_mujoco
+
+    dt = 2e-4
+    lugre = paper.lugre()
+    lugre = eqx.tree_at(lambda m: m.stribeck.delta, lugre, jnp.asarray(2.0))
+    model = lugre + (fx.Viscous(c_visc=20.0),
+                     fx.Cogging(cog_sin=0.8, cog_cos=-0.5, period=5e-4))
+    path = to_mujoco(model, tmp_path / "axis.xml", joint=joint, timestep=dt)
+    xml = path.read_text()
+    assert f'type="{joint}"' in xml and 'input="none"' in xml
+    assert "nothing approximated" in xml
+    t, x, v = _recorded_motion(dt)
+    want = np.asarray(jaxfric.simulate(model, t, x, v))
+    got = _mujoco_forces(xml, t, x, v)
+    assert np.max(np.abs(got - want)) <= 0.01 * np.max(np.abs(want))
+
+
+def test_mujoco_export_says_what_it_approximates_and_refuses_the_rest(tmp_path):
+    from jaxfric.export import mjcf
+
+    xml = mjcf(paper.lugre())  # the paper's delta is 0.6
+    assert "delta = 0.6 is replaced by MuJoCo's fixed exponent 2" in xml
+    for model, name in ((paper.two_state(), "TwoState"), (paper.tustin(), "Tustin"),
+                        (paper.gms5(), "GMS"), (paper.lugre() + fx.Offset(offset=1.0),
+                                                "offset")):
+        with pytest.raises(ExportError, match=name) as err:
+            mjcf(model)
+        assert "jaxfric fit FILE --model lugre" in str(err.value)
