@@ -350,3 +350,19 @@ def test_mujoco_export_says_what_it_approximates_and_refuses_the_rest(tmp_path):
         with pytest.raises(ExportError, match=name) as err:
             mjcf(model)
         assert "jaxfric fit FILE --model lugre" in str(err.value)
+
+
+def test_cli_export_mujoco_and_its_refusal(tmp_path):
+    from jaxfric._serialize import model_to_dict
+
+    good, bad = tmp_path / "lugre.json", tmp_path / "two_state.json"
+    good.write_text(json.dumps({"fitted_model": model_to_dict(paper.lugre())}))
+    bad.write_text(json.dumps({"fitted_model": model_to_dict(paper.two_state())}))
+    r = _cli("export", good, "--mujoco", tmp_path / "axis.xml", "--joint", "hinge")
+    assert r.returncode == 0, r.stderr
+    xml = (tmp_path / "axis.xml").read_text()
+    assert 'type="hinge"' in xml and "<dcmotor" in xml and "exponent 2" in xml
+    r = _cli("export", bad, "--mujoco", tmp_path / "no.xml")
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "TwoState" in r.stderr and "--model lugre" in r.stderr
+    assert not (tmp_path / "no.xml").exists()

@@ -260,7 +260,7 @@ _OUTPUTS = {
     "simulate": (("--out", "out", "file"),),
     "compare": (("--json", "json", "file"),),
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
-    "export": (("--c", "c_dir", "folder"),),
+    "export": (("--c", "c_dir", "folder"), ("--mujoco", "mujoco", "file")),
 }
 
 
