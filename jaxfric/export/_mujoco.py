@@ -23,8 +23,7 @@ from ..effects import Cogging, Viscous, WithEffects
 from ._parts import ExportError
 
 
-_REFIT = ("fit the closest LuGre model with 'jaxfric fit FILE --model lugre' (with --params "
-          "RESULT.json to start from this one) and export that")
+_REFIT = "fit the closest LuGre model with 'jaxfric fit FILE --model lugre' and export that"
 
 
 def _split(model):
