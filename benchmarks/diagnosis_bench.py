@@ -70,7 +70,7 @@ def run_case(case: dict) -> dict:
             "rmse_before": d.baseline.rmse, "rmse_after": d.final.rmse,
             "rmse_holdout_before": d.baseline.rmse_holdout,
             "rmse_holdout_after": d.final.rmse_holdout,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "summary": d.summary()}
 
 
 def cases(quick: bool) -> list[dict]:
@@ -120,8 +120,11 @@ def print_table(rows: list[dict], summary: dict) -> None:
     for r in rows:
         hidden = " + ".join(r["hidden"]) or "(clean)"
         added = " + ".join(r["added"]) or "-"
-        ok = ("ok" if (r["hidden"] and r["first"] in r["hidden"]) or
-              (not r["hidden"] and not r["added"]) else "MISS")
+        if len(r["hidden"]) == 2:
+            ok = "ok" if set(r["hidden"]) <= set(r["added"]) else "MISS"
+        else:
+            ok = ("ok" if (r["hidden"] and r["first"] in r["hidden"]) or
+                  (not r["hidden"] and not r["added"]) else "MISS")
         print(f"{r['truth']:<16} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  {hidden:<34} "
               f"{added:<40} {r['rmse_holdout_before']:>10.4f} -> {r['rmse_holdout_after']:.4f}"
               f"  {ok}")

@@ -84,7 +84,10 @@ def _columns(effect, s):
 
 
 #: Physical ranges of linear parameters (the lag gain is a fraction of the force).
-_BOUNDS = {"friction_lag": (0.0, 1.0), "inertia": (0.0, np.inf)}  # a mass is not negative
+#: Dissipative terms (viscous, drag) and a Stribeck hump (extra static friction) are not
+#: negative: with a negative coefficient they would stand in for model mismatch, not physics.
+_BOUNDS = {"friction_lag": (0.0, 1.0), "inertia": (0.0, np.inf),  # a mass is not negative
+           "viscous": (0.0, np.inf), "quadratic_drag": (0.0, np.inf), "stribeck": (0.0, np.inf)}
 
 
 def _with_linear(effect, w):

@@ -29,7 +29,8 @@ Then, for every candidate effect of `jaxfric.effects`:
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
-values), everything is refitted jointly on the training set (twice: from the fitted model,
+values; of significant effects within 10 % of the best score, the one with the larger
+``t``), everything is refitted jointly on the training set (twice: from the fitted model,
 and from the starting model with the effects, which is not bent by the missing effect; the
 better training fit is kept, and a fit that stops at its step limit is restarted while
 that still lowers its error by more than 1 %, up to five times),
@@ -101,6 +102,9 @@ class Diagnosis:
     model: object
     model_name: str
     velocity: str = ""  # how the velocity was obtained (`fitting._derivatives.describe`)
+    #: The velocity estimate as options (``{"method": ..., "window_s": ...}``; None for a
+    #: given velocity), so that `jaxfric simulate --params` can use the same.
+    derivatives: dict | None = None
     #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
     warnings: dict = dataclasses.field(default_factory=dict)
 
@@ -126,6 +130,7 @@ class Diagnosis:
                       "steps": [{"added": s.added, "rmse": s.rmse,
                                  "rmse_holdout": s.rmse_holdout} for s in self.steps]},
             "velocity": self.velocity,
+            "derivatives": self.derivatives,
             "warnings": self.warnings,
             "fitted_model": saved_model(self.model),
         }
@@ -273,6 +278,12 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     """Add the first significant candidate whose refit holds up: ``(accepted, step,
     residual)``, or ``(None, None, None)``."""
     tries = [c for c in ranking if c.significant]
+    if tries:
+        # Two effects that explain almost the same share (within 10 %: an offset and an
+        # asymmetry during sliding) are told apart by how consistent their evidence is.
+        close = [c for c in tries if c.score >= 0.9 * tries[0].score]
+        tries = (sorted(close, key=lambda c: c.t_stat, reverse=True)
+                 + [c for c in tries if c.score < 0.9 * tries[0].score])
     if ranking and not ranking[0].significant and ranking[0].score >= 4 * ctx.min_score:
         # The largest score, but not consistent: often a second missing effect
         # confounding the linear screen. Try it first; the refit must confirm it where it
@@ -408,14 +419,14 @@ def diagnose(
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
         state.best_holdout = trial.rmse_holdout
-    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F,
-                                         baseline.fit.prediction)}
+    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F)}
     if steps:
-        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F,
-                                         steps[-1].fit.prediction)
+        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
                      model=state.current, model_name=model_name or type(ctx.model).__name__,
-                     velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w})
+                     velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
+                     derivatives=None if v is not None else {"method": derivatives,
+                                                             "window_s": velocity_window})
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,

@@ -1,23 +1,23 @@
-"""Is a fitted model plausible for the right reasons? Three checks run on the model itself, by
-simulation (so they hold for every model kind, effects included), against the scale of the
-measured motion:
+"""Is a fitted model plausible for the right reasons? Three checks run on the base model (its
+added effects removed: its presliding and lag are what could take effects up), by
+simulation (so they hold for every model kind), against the scale of the measured motion:
 
 - **presliding range**: from steady sliding at the typical speed, the motion reverses; the
   travel after which the force has covered 90 % of its swing to the new sliding level.
-  Flagged when it exceeds half the median stroke: the model then treats most of each stroke
+  Flagged when it exceeds half a long stroke (`_strokes`): the model then treats most of each stroke
   as presliding, and its hysteresis can take up what sliding effects (drag, position
   dependence, a load) should explain.
 - **lag time**: a step between two sliding speeds (the 25th and 75th percentiles of the
   measured sliding speed); the time the force takes to cover 63 % of its change. Flagged
-  when it exceeds half the median stroke duration: the lag then acts as a memory of
+  when it exceeds half the duration of that stroke: the lag then acts as a memory of
   the motion, able to take up slow effects (drift, warm-up, a position-dependent load).
 - **steady state**: where the measurement slides at a nearly constant speed, the model's
   own prediction against its steady state at that speed (`steady_state`). Flagged when they
   differ by more than 10 % of the sliding force level: the fit then relies on a state that
   never settles instead of on its friction curve.
 
-`steady_state` is also the static curve a report draws: the force the whole model (effects
-included, e.g. an offset) reaches after sliding at constant speed.
+`steady_state` is also the static curve a report can draw: the force the whole model
+(effects included, e.g. an offset) reaches after sliding at constant speed.
 """
 
 import numpy as np
@@ -27,7 +27,9 @@ from jaxfric.motion import reversals
 
 
 def _strokes(t, x, v):
-    """Median stroke (m) and its median duration (s) between reversals."""
+    """A long stroke of the motion (m) and its duration (s): the stroke between reversals
+    at the 90th percentile of their lengths. A model whose presliding or lag spans even the
+    long strokes has taken up more than presliding and lag."""
     rev, _ = reversals(np.sign(v))
     idx = np.r_[0, np.flatnonzero(rev), t.size - 1]
     lengths = np.abs(np.diff(x[idx]))
@@ -35,7 +37,9 @@ def _strokes(t, x, v):
     keep = lengths > 0
     if not keep.any():
         return float(np.ptp(x)) or 1e-3, float(t[-1] - t[0]) or 1.0
-    return float(np.median(lengths[keep])), float(np.median(durations[keep]))
+    lengths, durations = lengths[keep], durations[keep]
+    k = int(np.argsort(lengths)[int(0.9 * (lengths.size - 1))])
+    return float(lengths[k]), float(durations[k])
 
 
 def _sliding_speeds(v):
@@ -46,13 +50,15 @@ def _sliding_speeds(v):
     return float(lo), float(mid), float(hi)
 
 
-def steady_state(model, speeds, duration: float, samples: int = 2000) -> np.ndarray:
+def steady_state(model, speeds, duration: float, samples: int = 2000,
+                 at: float = 0.0) -> np.ndarray:
     """The force (N) `model` reaches after sliding at each of `speeds` (m/s, signed) for
-    `duration` seconds from rest."""
+    `duration` seconds from rest, arriving at position `at` (m; where position-dependent
+    effects are evaluated)."""
     t = np.linspace(0.0, duration, samples)
     out = []
     for s in np.asarray(speeds, float):
-        x = s * t
+        x = at + s * (t - duration)
         v = np.full_like(t, s)
         out.append(float(np.asarray(jaxfric.simulate(model, t, x, v))[-1]))
     return np.asarray(out)
@@ -94,10 +100,14 @@ def _lag_time(model, v_lo, v_hi, settle):
     return float(t[k - 1 + reached[0]] - t[k - 1]) if reached.size else float(t[-1] - t[k - 1])
 
 
-def plausibility(model, t, x, v, F, prediction) -> list[str]:
+def plausibility(model, t, x, v, F) -> list[str]:
     """Plain-words warnings about `model` fitted to ``(t, x, v, F)`` (SI) with its
-    `prediction` (N): see the module docstring. Empty when nothing is implausible."""
-    t, x, v, F, pred = (np.asarray(a, np.float64) for a in (t, x, v, F, prediction))
+    prediction: see the module docstring. Empty when nothing is implausible. The
+    checks are on the base model (its added effects removed): its presliding and lag are
+    what could take up effects."""
+    t, x, v, F = (np.asarray(a, np.float64) for a in (t, x, v, F))
+    model = model.without_effects()
+    pred = np.asarray(jaxfric.simulate(model, t, x, v))
     stroke, stroke_time = _strokes(t, x, v)
     lo, mid, hi = _sliding_speeds(v)
     level = float(np.median(np.abs(F[np.abs(v) >= mid]))) if np.any(np.abs(v) >= mid) else 1.0
@@ -106,13 +116,13 @@ def plausibility(model, t, x, v, F, prediction) -> list[str]:
     if reach > 0.5 * stroke:
         flags.append(
             f"presliding range {1e6 * reach:.4g} um (90 % of the force swing after a reversal) "
-            f"is {100 * reach / stroke:.3g} % of the median stroke ({1e6 * stroke:.4g} um): the "
+            f"is {100 * reach / stroke:.3g} % of a long stroke ({1e6 * stroke:.4g} um): the "
             "model treats most of each stroke as presliding and its hysteresis can take up "
             "sliding effects")
     tau = _lag_time(model, lo, hi, max(stroke_time, 10 * float(np.median(np.diff(t)))))
     if tau > 0.5 * stroke_time:
         flags.append(
-            f"lag time {tau:.3g} s is {100 * tau / stroke_time:.3g} % of the median stroke "
+            f"lag time {tau:.3g} s is {100 * tau / stroke_time:.3g} % of a long stroke's "
             f"duration ({stroke_time:.3g} s): the lag acts as a memory of the motion and can "
             "take up slow effects (drift, warm-up, a position-dependent load)")
     flags += _steady_flags(model, t, x, v, pred, level, stroke)

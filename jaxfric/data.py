@@ -1,28 +1,33 @@
 """Measurements from files (CSV, NPZ), DataFrames or arrays, checked and converted to SI.
 
-A measurement has columns ``t`` (time), ``x`` (position) and either ``F`` (the friction force)
-or ``u`` (the drive force, which also contains inertia and offsets); optionally ``v``
-(velocity), ``a`` (acceleration) and ``normal`` (normal load). Any other column is kept in
-`Measurement.extra`.
+A measurement has columns ``t`` (time), ``x`` (position or angle) and either ``F`` (the
+friction force or torque) or ``u`` (the drive force or torque, which also contains inertia
+and offsets); optionally ``v`` (velocity), ``a`` (acceleration) and ``normal`` (normal load).
+Any other numeric column is kept in `Measurement.extra`; a text column is ignored with a note.
 
-**Units.** SI by default (s, m, m/s, m/s^2, N). A unit in the header converts:
-``t[ms]``, ``x[mm]``, ``x[um]``, ``F[mN]``, ``v[mm/s]`` ... (see `UNITS`), or pass
-``units={"x": "mm"}`` (the CLI's ``--units x=mm``).
+**Units.** SI by default: s, m, m/s, m/s^2, N for a linear file; s, rad, rad/s, rad/s^2,
+N m for a rotary one (a joint or motor axis). A unit in the header converts: ``t[ms]``,
+``x[mm]``, ``F[mN]``, ``x[deg]``, ``v[rpm]``, ``F[N m]`` ... (see `jaxfric.units`), or pass
+``units={"x": "mm"}`` (the CLI's ``--units x=mm``). The units decide whether a file is
+linear or rotary (`Measurement.kind`); ``kind=`` (``--rotary``) decides for a file without
+units.
 
 **Checks.** Every problem raises `DataError`, a `ValueError` whose one-line message names the
-source, the column and the (1-based, data) row: missing or empty file, no header, missing
-column, non-numeric cell, NaN/inf, time not increasing or duplicated, too few samples, no
-motion at all, absurd magnitudes, and positions spanning more than 2 m with no unit
-declared (millimetres read as metres; declare ``x[m]`` to confirm). Suspicious but possible
-data give a `DataWarning` instead: a force whose sign is opposite to the friction convention
-(friction has the sign of ``v``), corrected with ``flip_force=True`` (CLI ``--flip-force``).
+source, the column and the (1-based, data) row: a missing, unreadable or non-regular file
+(devices and FIFOs are refused unread), a file or column beyond the size limits
+(`MAX_FILE_BYTES`, `MAX_SAMPLES`), a wrong NPZ, no header, missing column, non-numeric
+cell, NaN/inf, time not increasing or duplicated, too few samples, no motion at all, absurd
+magnitudes, and linear positions spanning more than 2 m with no unit declared (millimetres
+read as metres; declare ``x[m]`` to confirm). Suspicious but possible data give a
+`DataWarning` instead: undeclared units that look like another unit (`jaxfric._plausible`:
+ms, mm, mN, deg, mm/s, deg/s, rpm), and a force whose sign is opposite to the friction
+convention (friction has the sign of ``v``), corrected with ``flip_force=True`` (CLI
+``--flip-force``).
 
 Irregular sampling is kept as it is: every model takes the time column as given.
 """
 
-import csv
 import dataclasses
-import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -31,36 +36,31 @@ from typing import Any
 import equinox as eqx
 import numpy as np
 
+from . import _files, _joints, _plausible, units as _units
+from ._files import DataError
 from .motion import velocity
-
-
-class DataError(ValueError):
-    """A measurement cannot be used; the message names the source, column and row."""
+from .units import LINEAR
 
 
 class DataWarning(UserWarning):
     """A measurement looks suspicious (units, sign convention) but can be used."""
 
 
-#: Unit name -> factor to SI, per physical quantity.
-UNITS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0},
-    "length": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9, "cm": 1e-2},
-    "velocity": {"m/s": 1.0, "mm/s": 1e-3, "um/s": 1e-6, "µm/s": 1e-6, "cm/s": 1e-2},
-    "acceleration": {"m/s^2": 1.0, "m/s2": 1.0, "mm/s^2": 1e-3, "mm/s2": 1e-3},
-    "force": {"N": 1.0, "mN": 1e-3, "uN": 1e-6, "µN": 1e-6, "kN": 1e3},
-}
-QUANTITY = {"t": "time", "x": "length", "v": "velocity", "a": "acceleration",
-            "F": "force", "u": "force", "normal": "force"}
-SI_UNIT = {"time": "s", "length": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+# The unit tables live in `jaxfric.units` (linear and rotary); these names stay here.
+UNITS = _units.UNITS
+QUANTITY = _units.QUANTITY[LINEAR]
+SI_UNIT = _units.SI_UNIT
+MAX_FILE_BYTES = _files.MAX_FILE_BYTES
+MAX_SAMPLES = _files.MAX_SAMPLES
 
 MIN_SAMPLES = 10
 #: Travel (m) beyond which an undeclared position unit is taken for a mistake.
 MAX_UNDECLARED_SPAN_M = 2.0
 # Beyond these a value is not a friction measurement in SI, whatever the machine.
 ABSURD = {"t": 1e7, "x": 1e3, "v": 1e3, "a": 1e6, "F": 1e7, "u": 1e7, "normal": 1e8}
-
-_HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z_0-9]*)\s*(?:\[\s*([^\]]*?)\s*\])?\s*$")
+#: The same for a rotary file (rad, rad/s, rad/s^2, N m): a motor axis turns many times.
+ABSURD_ROTARY = {**ABSURD, "x": 1e6, "v": 1e4, "a": 1e7}
+_STANDARD = frozenset(QUANTITY)
 
 
 class Measurement(eqx.Module):
@@ -69,14 +69,16 @@ class Measurement(eqx.Module):
     The one container for measured data: `load` returns it, and the fits take it
     (`fitting.Dataset` is this class).
 
-    - `t` (s), `x` (m): always present.
-    - `F` (N): friction force, sign of ``v``, or ``None``.
-    - `v` (m/s): velocity, or ``None`` (then derived from `x`, see `velocity`).
+    - `t` (s), `x` (m, or rad for a rotary file): always present.
+    - `F` (N, or N m): friction force (torque), sign of ``v``, or ``None``.
+    - `v` (m/s, or rad/s): velocity, or ``None`` (then derived from `x`, see `velocity`).
     - `weights`: per-sample weights >= 0 for a fit (0 drops a sample), or ``None`` (ones).
-    - `u` (N): drive force (friction plus inertia and offsets), or ``None``; `a` (m/s^2)
-      and `normal` (N): ``None`` unless given.
+    - `u` (N, or N m): drive force (friction plus inertia and offsets), or ``None``; `a`
+      (m/s^2, or rad/s^2) and `normal` (N): ``None`` unless given.
     - `source`: where it came from (file name or ``"<arrays>"``); `notes`: what was
       converted or flipped while loading; `extra`: other columns by name.
+    - `kind`: ``"linear"`` (a slide) or ``"rotary"`` (a joint or motor axis), from the
+      units of the file (see `jaxfric.units`).
     """
 
     t: Any
@@ -90,6 +92,7 @@ class Measurement(eqx.Module):
     source: str = eqx.field(static=True, default="<arrays>")
     notes: tuple[str, ...] = eqx.field(static=True, default=(), converter=tuple)
     extra: dict = eqx.field(default_factory=dict)
+    kind: str = eqx.field(static=True, default=LINEAR)
 
     @property
     def force(self) -> np.ndarray:
@@ -99,6 +102,10 @@ class Measurement(eqx.Module):
     @property
     def force_column(self) -> str:
         return "F" if self.F is not None else "u"
+
+    def unit(self, column: str) -> str:
+        """The SI unit of a standard `column` for this measurement's kind (``"N m"``)."""
+        return _units.si_unit(column, self.kind)
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -115,112 +122,12 @@ class Measurement(eqx.Module):
     def __repr__(self) -> str:
         cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal") if getattr(self, c) is not None]
         span = self.t[-1] - self.t[0]
-        return f"Measurement({self.source!r}, {len(self)} samples, {span:.3g} s, columns {cols})"
-
-
-def _unit_factor(source: str, column: str, unit: str) -> float:
-    quantity = QUANTITY.get(column)
-    if quantity is None:
-        return 1.0
-    table = UNITS[quantity]
-    key = unit.replace(" ", "")
-    if key not in table:
-        raise DataError(
-            f"{source}: column {column!r}: unknown unit {unit!r} for a {quantity}; "
-            f"use one of {', '.join(table)}"
-        )
-    return table[key]
-
-
-def _parse_header(source: str, names: list[str]) -> list[tuple[str, str | None]]:
-    parsed = []
-    for i, raw in enumerate(names):
-        m = _HEADER.match(raw)
-        if m is None:
-            raise DataError(
-                f"{source}: header cell {i + 1} ({raw!r}) is not a column name like 'x' or 'x[mm]'"
-            )
-        parsed.append((m.group(1), m.group(2) or None))
-    seen = set()
-    for name, _ in parsed:
-        if name in seen:
-            raise DataError(f"{source}: column {name!r} appears twice in the header")
-        seen.add(name)
-    return parsed
-
-
-def _read_csv(path: Path) -> tuple[list[tuple[str, str | None]], dict[str, np.ndarray]]:
-    source = str(path)
-    if not path.exists():
-        raise DataError(f"{source}: no such file")
-    if path.is_dir():
-        raise DataError(f"{source}: is a folder, not a data file")
-    text = path.read_text(encoding="utf-8-sig", errors="replace")
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        raise DataError(f"{source}: the file is empty")
-    dialect = csv.excel
-    try:
-        dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t ")
-    except csv.Error:
-        pass
-    rows = list(csv.reader(lines, dialect))
-    header = [h.strip() for h in rows[0]]
-    if all(_is_number(h) for h in header if h):
-        raise DataError(
-            f"{source}: no header row; the first line must name the columns, e.g. 't,x,F' "
-            "(units in brackets: 't[s],x[mm],F[N]')"
-        )
-    parsed = _parse_header(source, header)
-    body = rows[1:]
-    if not body:
-        raise DataError(f"{source}: a header but no data rows")
-    ncol = len(header)
-    values = np.empty((len(body), ncol))
-    for r, row in enumerate(body):
-        if len(row) != ncol:
-            raise DataError(f"{source}: row {r + 1}: {len(row)} cells, the header has {ncol}")
-        for c, cell in enumerate(row):
-            try:
-                values[r, c] = float(cell)
-            except ValueError:
-                raise DataError(
-                    f"{source}: column {parsed[c][0]!r}, row {r + 1}: "
-                    f"{cell.strip()!r} is not a number"
-                ) from None
-    return parsed, {name: values[:, c] for c, (name, _) in enumerate(parsed)}
-
-
-def _is_number(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
-
-
-def _read_npz(path: Path):
-    source = str(path)
-    if not path.exists():
-        raise DataError(f"{source}: no such file")
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except Exception as e:
-        raise DataError(f"{source}: not a readable .npz file ({e})") from None
-    if not archive.files:
-        raise DataError(f"{source}: the file is empty (no arrays)")
-    parsed = _parse_header(source, list(archive.files))
-    columns = {}
-    for (name, _), key in zip(parsed, archive.files):
-        arr = archive[key]
-        if not np.issubdtype(arr.dtype, np.number):
-            raise DataError(f"{source}: column {name!r}: not numeric (dtype {arr.dtype})")
-        columns[name] = np.asarray(arr, dtype=np.float64).reshape(-1)
-    return parsed, columns
+        return (f"Measurement({self.source!r}, {self.kind}, {len(self)} samples, {span:.3g} s, "
+                f"columns {cols})")
 
 
 def _from_mapping(data: Mapping[str, Any]):
-    parsed = _parse_header("<arrays>", [str(k) for k in data])
+    parsed = _files.parse_header("<arrays>", [str(k) for k in data])
     columns = {}
     for (name, _), value in zip(parsed, data.values()):
         arr = np.asarray(value)
@@ -229,52 +136,88 @@ def _from_mapping(data: Mapping[str, Any]):
         if not np.issubdtype(arr.dtype, np.number):
             raise DataError(f"<arrays>: column {name!r}: not numeric (dtype {arr.dtype})")
         columns[name] = arr.astype(np.float64)
-    return parsed, columns
+    return parsed, columns, []
 
 
-def _read(data) -> tuple[str, list[tuple[str, str | None]], dict[str, np.ndarray]]:
-    """``(source, [(column, header unit)], {column: values})`` from a path, a DataFrame or
-    a mapping."""
+def _read(data) -> tuple[str, list[tuple[str, str | None]], dict[str, np.ndarray], list[str]]:
+    """``(source, [(column, header unit)], {column: values}, notes)`` from a path, a
+    DataFrame or a mapping."""
     if isinstance(data, str | Path):
         path = Path(data)
         source = str(path)
         if path.suffix.lower() == ".npz":
-            parsed, columns = _read_npz(path)
+            parsed, columns, notes = _files.read_npz(path, _STANDARD)
         else:
-            parsed, columns = _read_csv(path)
+            parsed, columns, notes = _files.read_csv(path, _STANDARD)
     elif hasattr(data, "columns") and hasattr(data, "to_numpy"):  # a DataFrame
         source = "<DataFrame>"
-        parsed, columns = _from_mapping({str(c): data[c].to_numpy() for c in data.columns})
+        parsed, columns, notes = _from_mapping(
+            {str(c): data[c].to_numpy() for c in data.columns})
     elif isinstance(data, Mapping):
         source = "<arrays>"
-        parsed, columns = _from_mapping(data)
+        parsed, columns, notes = _from_mapping(data)
     else:
         raise TypeError(f"cannot load a {type(data).__name__}; give a path, a DataFrame or a dict")
-    return source, parsed, columns
+    return source, parsed, columns, notes
 
 
-def _to_si(source: str, columns: dict[str, np.ndarray], header_unit: dict, units: dict
-           ) -> list[str]:
-    """Convert `columns` in place to SI from the header's units or the caller's `units`;
-    returns the notes of what was converted."""
+def _declared(source: str, columns: dict, header_unit: dict, units: dict) -> dict[str, str]:
+    """``{column: unit}`` from the header and the caller, which must agree."""
     for name in units:
         if name not in columns:
             raise DataError(
                 f"{source}: a unit was given for column {name!r}, which is not in the data"
             )
-    notes = []
-    for name in list(columns):
-        unit = header_unit.get(name) or units.get(name)
+    declared = {}
+    for name in columns:
         if header_unit.get(name) and name in units and units[name] != header_unit[name]:
             raise DataError(
                 f"{source}: column {name!r} is declared in {header_unit[name]!r} in the header "
                 f"and in {units[name]!r} by the caller"
             )
+        unit = header_unit.get(name) or units.get(name)
         if unit is not None:
-            factor = _unit_factor(source, name, unit)
-            if factor != 1.0:
-                columns[name] = columns[name] * factor
-                notes.append(f"{name} converted from {unit} to {SI_UNIT[QUANTITY[name]]}")
+            declared[name] = unit
+    return declared
+
+
+def _decide_kind(source: str, declared: dict[str, str], kind: str | None,
+                 default: str = LINEAR) -> str:
+    """Linear or rotary from the declared units, or `kind` (else `default`) when they do
+    not tell."""
+    if kind is not None and kind not in _units.KINDS:
+        raise DataError(f"kind {kind!r}: expected 'linear' or 'rotary'")
+    votes = {c: _units.kind_of_unit(c, u) for c, u in declared.items()}
+    votes = {c: k for c, k in votes.items() if k is not None}
+    found = set(votes.values())
+    if len(found) > 1:
+        said = ", ".join(f"{c} in {declared[c]}" for c in votes)
+        raise DataError(f"{source}: mixes linear and rotary units ({said}); a rotary file has "
+                        "x in rad or deg, v in rad/s and F in N m")
+    if found and kind is not None and kind not in found:
+        said = ", ".join(f"{c} in {declared[c]}" for c in votes)
+        raise DataError(f"{source}: asked for a {kind} file, but its units are "
+                        f"{found.pop()} ({said})")
+    return found.pop() if found else (kind or default)
+
+
+def _to_si(source: str, columns: dict[str, np.ndarray], declared: dict[str, str], kind: str
+           ) -> list[str]:
+    """Convert `columns` in place to SI from the `declared` units; returns the notes of
+    what was converted."""
+    notes = []
+    for name, unit in declared.items():
+        factor = _units.unit_factor(name, unit, kind)
+        if factor is None:
+            quantity = _units.QUANTITY[kind][name]
+            article = "an" if quantity[0] in "aeiou" else "a"
+            raise DataError(
+                f"{source}: column {name!r}: unknown unit {unit!r} for {article} {quantity}; "
+                f"use one of {', '.join(UNITS[quantity])}"
+            )
+        if factor != 1.0:
+            columns[name] = columns[name] * factor
+            notes.append(f"{name} converted from {unit} to {_units.si_unit(name, kind)}")
     return notes
 
 
@@ -296,7 +239,7 @@ def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> Meas
                 "opposite sign to the friction convention (friction has the sign of v). "
                 "Use --flip-force (flip_force=True) if so.",
                 DataWarning,
-                stacklevel=3,  # the caller of `load`
+                stacklevel=4,  # the caller of `load`
             )
     return m
 
@@ -308,6 +251,7 @@ def load(
     flip_force: bool = False,
     require_force: bool = True,
     check_sign: bool = True,
+    kind: str | None = None,
 ) -> Measurement:
     """Read, check and convert a measurement to SI.
 
@@ -320,22 +264,88 @@ def load(
     - `require_force`: a column ``F`` or ``u`` must exist.
     - `check_sign`: warn (`DataWarning`) when the force is anti-correlated with the direction
       of motion, i.e. recorded with the opposite sign convention.
+    - `kind`: ``"linear"`` or ``"rotary"`` for a file whose units do not tell (``None``:
+      from the units, linear when there are none); a contradiction is an error.
+
+    Undeclared units that look wrong (`jaxfric._plausible`: ms read as s, mm as m, mN as N,
+    deg as rad, v in mm/s or rpm) give a `DataWarning` naming the likely unit.
 
     **Returns:** a `Measurement`. **Raises:** `DataError` with a one-line message.
     """
-    source, parsed, columns = _read(data)
-    units = dict(units or {})
+    return _load(_read(data), units=units, flip_force=flip_force, require_force=require_force,
+                 check_sign=check_sign, kind=kind)
+
+
+def load_joints(
+    data,
+    *,
+    units: Mapping[str, str] | None = None,
+    flip_force: bool = False,
+    require_force: bool = True,
+    check_sign: bool = True,
+    kind: str | None = None,
+) -> dict[str, Measurement]:
+    """Read a file of several joints: ``{"joint 1": Measurement, ...}``, each checked and
+    converted as `load` does.
+
+    The layouts (`jaxfric._joints`): numbered columns beside one ``t`` (``q1..qN``,
+    ``dq1..dqN``, ``tau1..tauN``, or ``x1``, ``v1``, ``F1`` ...; units per column such as
+    ``q1[deg]``), or a numeric ``joint`` column with the standard columns. Robot names
+    (q, dq, tau) make the joints rotary unless their units say otherwise. `units` may name
+    a numbered column (``{"q2": "deg"}``), a prefix for all joints (``{"q": "deg"}``) or a
+    standard column (``{"x": "deg"}``); the other arguments are as for `load`.
+    """
+    source, parsed, columns, notes = _read(data)
+    if _joints.joint_layout(columns) is None:
+        raise DataError(f"{source}: one joint only (no q1.., x1.. or 'joint' column); "
+                        "use jaxfric.data.load")
+    per_joint, robot = _joints.split(source, parsed, columns, dict(units or {}), DataError)
+    out = {}
+    for name, mapping in per_joint.items():
+        read = (f"{source} {name}", _files.parse_header(source, list(mapping)),
+                {k.split("[")[0]: v for k, v in mapping.items()}, notes)
+        out[name] = _load(read, units={}, flip_force=flip_force, require_force=require_force,
+                          check_sign=check_sign, kind=kind,
+                          default_kind=_units.ROTARY if robot else LINEAR)
+    return out
+
+
+def joint_layout(data) -> str | None:
+    """``"wide"`` (q1, dq1, tau1 ...), ``"long"`` (a ``joint`` column) or ``None`` (one
+    joint) for a path (only its header is read), a DataFrame or a mapping."""
+    if isinstance(data, str | Path):
+        names = _files.header_names(Path(data))
+    else:
+        names = [str(c).split("[")[0].strip() for c in data]
+    return _joints.joint_layout(names)
+
+
+def _load(read, *, units, flip_force, require_force, check_sign, kind,
+          default_kind: str = LINEAR) -> Measurement:
+    source, parsed, columns, read_notes = read
+    layout = _joints.joint_layout(columns)
+    if layout is not None:
+        raise DataError(f"{source}: holds several joints ({layout} layout: "
+                        f"{', '.join(list(columns)[:4])}, ...); read it with "
+                        "jaxfric.data.load_joints (the command line fits each joint)")
+    parsed, columns, units, renamed, robot = _joints.rename_aliases(parsed, columns,
+                                                                    dict(units or {}))
     header_unit = dict(parsed)
-    notes = _to_si(source, columns, header_unit, units)
-    _check(source, columns, require_force)
+    declared = _declared(source, columns, header_unit, units)
+    kind = _decide_kind(source, declared, kind, _units.ROTARY if robot else default_kind)
+    notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
+    _check(source, columns, require_force, kind)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal")},
         source=source,
         extra={k: v for k, v in columns.items() if k not in QUANTITY},
         notes=notes,
+        kind=kind,
     )
-    if header_unit.get("x") is None and "x" not in units:
+    if "x" not in declared and kind == LINEAR:
         _check_length_unit(m)
+    for message in _plausible.unit_warnings(m, set(declared)):
+        warnings.warn(f"{source}: {message}", DataWarning, stacklevel=3)
     return _orient_force(m, flip_force=flip_force, check_sign=check_sign)
 
 
@@ -350,7 +360,8 @@ def sign_correlation(m: Measurement) -> float:
     return float(np.corrcoef(d[moving], f[moving])[0, 1])
 
 
-def _check(source: str, columns: dict[str, np.ndarray], require_force: bool) -> None:
+def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
+           kind: str = LINEAR) -> None:
     for name in ("t", "x"):
         if name not in columns:
             raise DataError(f"{source}: missing column {name!r} (columns: {', '.join(columns)})")
@@ -366,7 +377,8 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool) -> 
         bad = ~np.isfinite(arr)
         if bad.any():
             row = int(np.argmax(bad)) + 1
-            raise DataError(f"{source}: column {name!r}, row {row}: {arr[row - 1]} (not finite)")
+            raise DataError(
+                f"{source}: column {name!r}, row {row}: {float(arr[row - 1])} (not finite)")
     if n < MIN_SAMPLES:
         raise DataError(f"{source}: only {n} samples; need at least {MIN_SAMPLES}")
     t = columns["t"]
@@ -375,18 +387,19 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool) -> 
         i = int(np.argmax(dt <= 0))
         what = "repeats" if dt[i] == 0 else "decreases"
         raise DataError(
-            f"{source}: column 't', row {i + 2}: time {what} ({t[i + 1]!r} after {t[i]!r}); "
+            f"{source}: column 't', row {i + 2}: time {what} ({float(t[i + 1])!r} after "
+            f"{float(t[i])!r}); "
             "it must be strictly increasing"
         )
-    _check_ranges(source, columns)
+    _check_ranges(source, columns, kind)
     if np.ptp(columns["x"]) == 0:
         raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
 
 
-def _check_ranges(source: str, columns: dict[str, np.ndarray]) -> None:
+def _check_ranges(source: str, columns: dict[str, np.ndarray], kind: str) -> None:
     """Refuse values beyond `ABSURD` in SI (a time span from the first sample): almost
     always a unit mistake."""
-    for name, limit in ABSURD.items():
+    for name, limit in (ABSURD_ROTARY if kind == _units.ROTARY else ABSURD).items():
         if name in columns:
             big = np.abs(columns[name]) > limit
             if name == "t":
@@ -395,7 +408,8 @@ def _check_ranges(source: str, columns: dict[str, np.ndarray]) -> None:
                 row = int(np.argmax(big)) + 1
                 raise DataError(
                     f"{source}: column {name!r}, row {row}: {columns[name][row - 1]:.6g} is absurd "
-                    f"for a {QUANTITY[name]} in {SI_UNIT[QUANTITY[name]]} (limit {limit:g}); "
+                    f"for a {_units.QUANTITY[kind][name]} in {_units.si_unit(name, kind)} "
+                    f"(limit {limit:g}); "
                     "is the unit right?"
                 )
 

@@ -6,6 +6,8 @@ tests from other truths.
   with its own Stribeck curve (``gms_power``); a LuGre model with stiff bristles
   (``lugre``); a two-state model with a `PowerShape` presliding curve
   (``two_state_power``);
+- **motion**: `jaxfric.examples.diagnosis_motion` with its velocity steps turned into
+  ramps of 0.1 s (`finite_acceleration`), so that a mass has something to act on;
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
   with the fine grid's own central-difference velocity, and the hidden effects are computed
   there with formulas written here (`hidden_force`), not with `jaxfric.effects`;
@@ -18,6 +20,7 @@ import numpy as np
 
 
 FINE = 10  # the truth runs on a grid this many times finer than the sampling
+RAMP = 0.1  # s: the stage changes its velocity over this time (a finite acceleration)
 ENCODER = 0.05e-6  # m per count
 TRUTHS = ("gms_power", "lugre", "two_state_power")
 HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
@@ -46,17 +49,20 @@ def _central(t, y):
     return np.gradient(y, t)
 
 
-def hidden_force(name: str, t, x, v, a, base, level):
+def hidden_force(name: str, t, x, v, a, base, level, static=None):
     """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
-    level (N) of the truth, `base` its force."""
+    level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N)."""
     travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
     if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
         excess = np.maximum(np.abs(v) - 5e-3, 0.0)
         return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
-    if name == "asymmetry":  # 6 % more friction moving toward +x only
-        return 0.06 * level * (v > 0)
-    if name == "inertia":  # a mass error: 2 N at the typical acceleration
-        typical = np.median(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()])
+    if name == "asymmetry":  # the friction level 6 % higher moving toward +x only
+        # Proportional to the friction force, as a direction-dependent friction level is. (A
+        # constant step, ``c * (v > 0)``, is ``c/2`` of offset plus ``c/2`` more symmetric
+        # friction, sample for sample in sliding: no data can tell it from an offset.)
+        return 0.06 * np.abs(base) * (v > 0)
+    if name == "inertia":  # a mass error: 2 N at the 90th percentile of |a| while accelerating
+        typical = np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)
         return 2.0 / typical * a
     if name == "cogging":  # two harmonics of a 1.3 mm pitch
         phase = 2 * np.pi * x / 1.3e-3
@@ -73,15 +79,27 @@ def hidden_force(name: str, t, x, v, a, base, level):
         return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
     if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
         return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
-    if name == "friction_lag":  # 35 % of the level follows speed changes with tau = 0.6 s
-        target = 0.35 * np.abs(base)
+    if name == "friction_lag":  # 35 % of the friction level follows speed changes, tau 0.6 s
+        # The level is the truth's Stribeck curve |s(v)| (a speed-dependent level lagging
+        # behind the speed, as Hess and Soom measured), held while at rest.
+        target = 0.35 * static
         y = np.empty_like(target)
         y[0] = target[0]
         alpha = 1 - np.exp(-np.diff(t) / 0.6)
         for i in range(1, t.size):
-            y[i] = y[i - 1] + alpha[i - 1] * (target[i] - y[i - 1])
+            y[i] = y[i - 1] + (alpha[i - 1] * (target[i] - y[i - 1]) if v[i] != 0 else 0.0)
         return np.sign(v) * (y - target)
     raise ValueError(name)
+
+
+def finite_acceleration(t, x, ramp: float):
+    """The motion `x` (m) at uniform times `t` (s) with its velocity averaged over `ramp`
+    seconds (causally): every velocity step becomes a ramp, as a real stage accelerates."""
+    h = float(t[1] - t[0])
+    k = max(1, round(ramp / h))
+    v = np.diff(x) / h
+    v = np.convolve(v, np.ones(k) / k)[: v.size]
+    return x[0] + np.r_[0.0, np.cumsum(v) * h]
 
 
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
@@ -93,13 +111,15 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     from .examples import diagnosis_motion
 
     t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
+    x_fine = finite_acceleration(t_fine, x_fine, RAMP)
     model = truth(truth_name)
     v = _central(t_fine, x_fine)
     a = _central(t_fine, v)
     base = np.asarray(simulate(model, t_fine, x_fine, v))
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
-    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level) for h in hidden),
-                       np.zeros_like(base))
+    static = np.abs(np.asarray(model.stribeck(v)))
+    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level, static)
+                        for h in hidden), np.zeros_like(base))
     keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
     t = t_fine[keep]

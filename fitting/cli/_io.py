@@ -1,12 +1,16 @@
-"""What the commands share: model names, parameter units, reading a file with the command
-line's unit and sign options, result tables and JSON."""
+"""What the commands share: model names, parameter units, checking the options, reading a
+file with the command line's unit, kind and sign options, result tables and JSON.
 
+Tables and JSON speak the file's kind (`jaxfric.units`): a rotary file's parameters are in
+N m, rad, rad/s, N m s/rad ..., its travel in rad and deg."""
+
+import math
 import sys
 import warnings
 
 import numpy as np
 
-from jaxfric import data as _data
+from jaxfric import data as _data, units as _units
 
 from .._params import natural_units
 from .._result import saved_model
@@ -15,9 +19,49 @@ from .._result import saved_model
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
                "lugre": "lugre", "tustin": "tustin"}
 
-def param_units(res) -> dict[str, str]:
-    """``{name: SI unit}`` of a fit result's parameters, as declared on the model's fields."""
-    return natural_units(res.model)
+def param_units(res, kind: str = _units.LINEAR) -> dict[str, str]:
+    """``{name: SI unit}`` of a fit result's parameters, as declared on the model's fields,
+    in the words of a file of `kind` (``"N m"`` for a rotary file's ``"N"``)."""
+    return {k: _units.unit_for(u, kind) for k, u in natural_units(res.model).items()}
+
+
+def check_options(args) -> None:
+    """The numeric options of a command are usable: `DataError` (one line) otherwise."""
+    elements = getattr(args, "elements", None)
+    if elements is not None and elements < 1:
+        raise _data.DataError(f"--elements {elements}: a GMS model needs at least 1 element")
+    steps = getattr(args, "max_steps", None)
+    if steps is not None and steps < 0:
+        raise _data.DataError(f"--max-steps {steps}: must be 0 or more")
+    if getattr(args, "rotary", False) and getattr(args, "kind", None) == _units.LINEAR:
+        raise _data.DataError("--rotary and --kind linear contradict each other")
+    window = getattr(args, "velocity_window", None)
+    if window is not None and not (math.isfinite(window) and window > 0):
+        raise _data.DataError(f"--velocity-window {window}: must be a finite time > 0 "
+                              "(seconds)")
+
+
+def cli_kind(args) -> str | None:
+    """The kind asked on the command line (``--rotary`` or ``--kind``), or ``None``."""
+    if getattr(args, "rotary", False):
+        return _units.ROTARY
+    return getattr(args, "kind", None)
+
+
+def print_warnings(caught, args) -> None:
+    for w in caught:
+        if not args.quiet:
+            print(f"warning: {w.message}", file=sys.stderr)
+
+
+def describe(m) -> str:
+    """One line on a measurement: samples, duration, travel and force range, in its kind."""
+    f, col = m.force, m.force_column
+    line = (f"{m.source}: {m.kind}, {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
+            f"{_units.travel_text(float(np.ptp(m.x)), m.kind)}")
+    if f is not None:
+        line += f", {col} {f.min():.4g} .. {f.max():.4g} {m.unit(col)}"
+    return line
 
 
 def parse_units(specs) -> dict[str, str]:
@@ -39,19 +83,25 @@ def load_for_cli(args, log):
     stderr (unless --quiet)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
-        m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force)
-    for w in caught:
-        if not args.quiet:
-            print(f"warning: {w.message}", file=sys.stderr)
+        m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force,
+                       kind=cli_kind(args))
+    print_warnings(caught, args)
     for note in m.notes:
         log(f"note: {note}")
     return m
 
 
+def data_units(kind: str) -> dict[str, str]:
+    """``{column: SI unit}`` of the standard columns of a file of `kind`."""
+    return {c: _units.si_unit(c, kind) for c in ("t", "x", "v", "a", "F", "u")}
+
+
 def result_json(kind: str, res, m) -> dict:
-    units = param_units(res)
+    units = param_units(res, m.kind)
     return {
         "model": kind,
+        "kind": m.kind,
+        "data_units": data_units(m.kind),
         "file": str(m.source),
         "samples": len(m),
         "params": {k: float(v) for k, v in res.params.items()},
@@ -67,9 +117,9 @@ def result_json(kind: str, res, m) -> dict:
     }
 
 
-def param_table(res) -> str:
+def param_table(res, kind: str = _units.LINEAR) -> str:
     lines = [f"{'parameter':>10}  {'value':>14}  {'std. error':>10}  {'rel.':>8}  unit"]
-    units = param_units(res)
+    units = param_units(res, kind)
     for name in res.names:
         v, s = float(res.params[name]), float(res.stderr[name])
         rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
@@ -77,3 +127,13 @@ def param_table(res) -> str:
     return "\n".join(lines)
 
 
+def diagnosis_json(d, kind: str) -> dict:
+    """`fitting.Diagnosis.to_json` in the words of a file of `kind`, with the kind and the
+    units of its numbers (the saved model is left as saved)."""
+    out = d.to_json()
+    model = out.pop("fitted_model", None)
+    out = _units.speak_json(out, kind)
+    out.update(kind=kind, data_units={c: _units.si_unit(c, kind) for c in ("t", "x", "v", "F")})
+    if model is not None:
+        out["fitted_model"] = model
+    return out

@@ -11,15 +11,19 @@ import jax
 import numpy as np
 import optimistix as optx
 
-from jaxfric import data as _data
+from jaxfric import data as _data, units as _units
 
 from .._fit import fit as _fit
 from .._start import initial_model
 from ._io import (
+    cli_kind,
+    describe,
+    diagnosis_json,
     load_for_cli,
     MODEL_NAMES,
     param_table,
     parse_units,
+    print_warnings,
     result_json,
 )
 from ._output import atomic_file, write_json
@@ -64,6 +68,13 @@ def identification_velocity(m, args, log):
     return v, words
 
 
+def velocity_words(m, args) -> str:
+    """How `identification_velocity` obtains the velocity of `m`, in words."""
+    from .._derivatives import describe as words
+
+    return words(args.derivatives, args.velocity_window, column=m.v is not None)
+
+
 def derivatives_json(m, args) -> dict | None:
     """How the velocity was obtained, for a result's JSON (`simulate --params` reads it
     back); None when the file had a velocity column."""
@@ -86,15 +97,31 @@ def _saved_derivatives(path) -> dict:
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
+    if _data.joint_layout(args.file):
+        from .joints import fit_joints
+
+        return fit_joints(args, kind, log, fit_measurement)
     m = load_for_cli(args, log)
+    res = fit_measurement(args, kind, m, log)
+    if args.json:
+        write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
+                               "derivatives": derivatives_json(m, args)})
+        log(f"JSON written to {args.json}")
+    if args.plot:
+        plot_fit(args.plot, m, res, kind)
+        log(f"plot written to {args.plot}")
+    return 0
+
+
+def fit_measurement(args, kind: str, m, log):
+    """Fit model `kind` to `m` with the command line's options, printing its table."""
     if m.F is None:
         raise _data.DataError(
             f"{m.source}: 'fit' needs the friction force F; this file has only the drive force "
             "u (inertia and offsets included): use 'jaxfric diagnose' or subtract them first"
         )
-    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
-        f"{np.ptp(m.x) * 1e3:.4g} mm, force {m.F.min():.4g} .. {m.F.max():.4g} N")
-    v, how = identification_velocity(m, args, log)
+    log(describe(m))
+    v, _ = identification_velocity(m, args, log)
     if args.params:
         start, what = model_from_json(args.params, kind)
         log(f"starting from {what}")
@@ -108,33 +135,43 @@ def run_fit(args) -> int:
                solver=_progress_solver(log) if watched else None)
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
-        f"RMSE {float(res.rmse):.4g} N, NRMSE {float(res.nrmse):.4g}, R2 {float(res.r2):.4f}")
-    log(param_table(res))
+        f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
+        f"R2 {float(res.r2):.4f}")
+    log(param_table(res, m.kind))
     if not bool(res.converged):
-        print(f"warning: the fit did not converge ({res.status}); the values are the last "
-              "iterate", file=sys.stderr)
-    if args.json:
-        write_json(args.json, {**result_json(kind, res, m), "velocity": how,
-                               "derivatives": derivatives_json(m, args)})
-        log(f"JSON written to {args.json}")
-    if args.plot:
-        plot_fit(args.plot, m, res, kind)
-        log(f"plot written to {args.plot}")
-    return 0
+        print(f"warning: {m.source}: the fit did not converge ({res.status}); the values are "
+              "the last iterate", file=sys.stderr)
+    return res
 
 
 def run_diagnose(args) -> int:
-    from .._diagnose import diagnose
-
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
+    if _data.joint_layout(args.file):
+        from .joints import diagnose_joints
+
+        return diagnose_joints(args, kind, log, diagnose_measurement)
     m = load_for_cli(args, log)
+    d = diagnose_measurement(args, kind, m, log, args.report)
+    if args.json:
+        write_json(args.json, diagnosis_json(d, m.kind))
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def diagnose_measurement(args, kind: str, m, log, report):
+    """Diagnose `m` from model `kind` with the command line's options; the report (if
+    `report` names a folder) and the summary speak `m`'s units. Returns the diagnosis."""
+    from .._diagnose import diagnose
+
+    if m.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
+        plain = log
+        log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
     force, column = m.force, m.force_column
     if column == "u":
         log("note: the file has the drive force u (not F): the model starts as friction only; "
             "inertia and offset are among the effects the diagnosis looks for")
-    log(f"{m.source}: {len(m)} samples over {m.t[-1] - m.t[0]:.4g} s, travel "
-        f"{np.ptp(m.x) * 1e3:.4g} mm, force {force.min():.4g} .. {force.max():.4g} N")
+    log(describe(m))
     window = args.velocity_window
     if window is None and column == "u" and m.v is None and args.derivatives == "central":
         args.velocity_window = window = 0.01
@@ -145,23 +182,20 @@ def run_diagnose(args) -> int:
     t0 = time.perf_counter()
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
                  log=log)
-    d.velocity = how
+    d.velocity, d.derivatives = how, derivatives_json(m, args)
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
-    if args.report:
+    if report:
         from types import SimpleNamespace
 
         from .report import write_report
 
         page = write_report(
-            args.report,
-            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: v),
+            report,
+            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: v, kind=m.kind),
             d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
         )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
-    if args.json:
-        write_json(args.json, {**d.to_json(), "derivatives": derivatives_json(m, args)})
-        log(f"JSON written to {args.json}")
-    return 0
+    return d
 
 
 def model_from_params(kind: str, params: dict):
@@ -171,6 +205,10 @@ def model_from_params(kind: str, params: dict):
 
     from .. import _params
 
+    if not isinstance(params, dict) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in params.values()):
+        raise _data.DataError("'params' must be an object of parameter names and numbers, "
+                              "as 'jaxfric fit --json' writes it")
     n = sum(1 for k in params if k.startswith("nu_"))
     template = {"two-state": paper.two_state, "lugre": paper.lugre, "tustin": paper.tustin,
                 "gms": lambda: paper.gms(max(n, 1))}[kind]()
@@ -210,7 +248,20 @@ def model_from_json(path, kind: str):
         raise _data.DataError(f"{path}: holds no model: expected 'fitted_model' (from "
                               "'jaxfric fit --json' or 'jaxfric diagnose --json') or 'params'")
     kind = MODEL_NAMES.get(spec.get("model", kind), kind)
-    return model_from_params(kind, spec["params"]), f"{kind} with the parameters of {path}"
+    try:
+        model = model_from_params(kind, spec["params"])
+    except _data.DataError as e:
+        raise _data.DataError(f"{path}: {e}") from None
+    return model, f"{kind} with the parameters of {path}"
+
+
+def _json_kind(path) -> str | None:
+    """The kind (linear, rotary) of the data a saved result was fitted to, if it says."""
+    try:
+        spec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return spec.get("kind") if isinstance(spec, dict) else None
 
 
 def run_simulate(args) -> int:
@@ -218,16 +269,22 @@ def run_simulate(args) -> int:
     from jaxfric import paper
 
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    if _data.joint_layout(args.file):
+        from .joints import simulate_joints
+
+        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
-                       check_sign=False)
-    for w in caught:
-        if not args.quiet:
-            print(f"warning: {w.message}", file=sys.stderr)
+                       check_sign=False, kind=cli_kind(args))
+    print_warnings(caught, args)
     kind = MODEL_NAMES[args.model]
     if args.params:
         model, what = model_from_json(args.params, kind)
+        fitted_on = _json_kind(args.params)
+        if fitted_on in _units.KINDS and fitted_on != m.kind:
+            raise _data.DataError(f"{args.params}: the model was fitted to {fitted_on} data, "
+                                  f"{m.source} is {m.kind} (declare its units or --kind)")
         log(f"model: {what}")
         saved = _saved_derivatives(args.params)
         if args.derivatives is None and saved.get("method"):
@@ -247,9 +304,11 @@ def run_simulate(args) -> int:
     if m.force is not None:
         cols[m.force_column] = m.force
         err = force - m.force
-        log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} N")
+        log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} "
+            f"{m.unit('F')}")
     target = Path(args.out)
-    header = ",".join(f"{k}[{u}]" for k, u in zip(cols, ["s", "m", "m/s", "N", "N"]))
+    units = [m.unit(c) for c in ("t", "x", "v", "F", "F")]
+    header = ",".join(f"{k}[{u}]" for k, u in zip(cols, units))
     with atomic_file(target) as f:
         np.savetxt(f, np.column_stack(list(cols.values())), delimiter=",", header=header,
                    comments="", fmt="%.17g")
@@ -261,16 +320,30 @@ def run_simulate(args) -> int:
 
 
 def run_compare(args) -> int:
-    from .._regimes import regime_errors, regimes
-
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    m = load_for_cli(args, log)
-    if m.F is None:
-        raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
     kinds = [MODEL_NAMES.get(k.strip()) for k in args.models.split(",")]
     if None in kinds:
         raise _data.DataError(f"--models {args.models!r}: choose from two-state, gms, lugre, "
                               "tustin")
+    if _data.joint_layout(args.file):
+        from .joints import compare_joints
+
+        return compare_joints(args, kinds, log, compare_measurement)
+    m = load_for_cli(args, log)
+    results = compare_measurement(args, kinds, m, log)
+    if args.json:
+        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def compare_measurement(args, kinds, m, log) -> dict:
+    """Fit each model of `kinds` to `m` and print their RMSE per regime; returns
+    ``{model: result JSON with its "regimes"}``."""
+    from .._regimes import regime_errors, regimes
+
+    if m.F is None:
+        raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
     v, _ = identification_velocity(m, args, log)
     masks = regimes(m.t, m.x, v)
     rows, results = {}, {}
@@ -279,15 +352,12 @@ def run_compare(args) -> int:
         start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
         res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps)
         errs = regime_errors(np.asarray(res.residuals), masks)
-        rows[kind] = errs
+        rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
         results[kind] = {**result_json(kind, res, m), "regimes": errs}
     names = list(next(iter(rows.values())))
-    log("\nRMSE per regime, N (fitted to the whole file):")
+    log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file):")
     log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))
     for kind, errs in rows.items():
         log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"
                                     for n in names))
-    if args.json:
-        write_json(args.json, {"file": str(m.source), "models": results})
-        log(f"JSON written to {args.json}")
-    return 0
+    return results

@@ -47,11 +47,16 @@ FILE is a CSV (header row: t, x, F; optional v, normal; units in brackets such a
 F[mN]) or an NPZ with those arrays. F is the friction force with the sign of the velocity;
 if the file uses the opposite sign you will be warned, and --flip-force corrects it.
 The starting values are estimated from the data; all parameters are fitted jointly.
+A rotary file (a joint: x[rad] or x[deg], v[rad/s] or v[rpm], F[N m]; --rotary when the
+header has no units) is fitted the same way and reported in rad, rad/s and N m.
+A file of several joints (q1..qN, dq1..dqN, tau1..tauN, or a joint column) is fitted
+joint by joint, with a table of all joints at the end.
 
 examples:
   jaxfric fit run1.csv --model two-state
   jaxfric fit tribometer.csv --model two-state --flip-force --json fit.json --plot fit.png
   jaxfric fit data.csv --model gms --elements 10 --units x=mm,F=mN
+  jaxfric fit joint.csv --units x=deg,v=deg/s,F=Nm
 """
 
 
@@ -120,6 +125,7 @@ def _add_data_options(p) -> None:
                    help="units of columns without one in the header, e.g. x=mm,F=mN")
     p.add_argument("--flip-force", action="store_true",
                    help="multiply the force by -1 (data recorded with the opposite sign)")
+    _add_kind_options(p)
     p.add_argument("--json", metavar="OUT", help="write the result as JSON")
     p.add_argument("--quiet", action="store_true", help="print only errors")
 
@@ -132,6 +138,13 @@ def _add_derivative_options(p, default_window: str = "none", default="central") 
                         + ("" if default else "; with --params, the one the fit used"))
     p.add_argument("--velocity-window", type=float, metavar="S",
                    help=f"smooth the velocity estimate over S seconds (default: {default_window})")
+
+
+def _add_kind_options(p) -> None:
+    p.add_argument("--kind", choices=["linear", "rotary"],
+                   help="linear (m, N) or rotary (rad, N m) for a file whose header has no "
+                        "units (default: from the units, else linear)")
+    p.add_argument("--rotary", action="store_true", help="same as --kind rotary")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -185,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", metavar="FILE", help="motion: .csv (header row) or .npz")
     p.add_argument("--units", action="append", metavar="COL=UNIT",
                    help="units of columns without one in the header, e.g. x=mm")
+    _add_kind_options(p)
     p.add_argument("--model", default="two-state",
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model (default: %(default)s; the paper's values)")
@@ -240,6 +254,9 @@ def main(argv=None) -> int:
     enable_compilation_cache()
     signal.signal(signal.SIGTERM, _terminate)
     try:
+        from ._io import check_options
+
+        check_options(args)
         _check_outputs(args)
         return args.func(args)
     except DataError as e:

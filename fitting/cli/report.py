@@ -6,7 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ._io import param_units
+from jaxfric import units as _units
+
+from ._io import diagnosis_json, param_units
 from ._output import atomic_file, write_json
 from .plots import plot_diagnosis
 
@@ -19,8 +21,8 @@ def _table(header, rows) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def _params_table(res) -> str:
-    rows, units = [], param_units(res)
+def _params_table(res, kind: str) -> str:
+    rows, units = [], param_units(res, kind)
     for name in res.names:
         v, s = float(res.params[name]), float(res.stderr[name])
         rel = f"{100 * s / abs(v):.2g} %" if v != 0 and np.isfinite(s) else "-"
@@ -28,24 +30,28 @@ def _params_table(res) -> str:
     return _table(["parameter", "value", "std. error", "relative", "unit (SI)"], rows)
 
 
-def _regimes_table(before: dict, after: dict) -> str:
+def _regimes_table(before: dict, after: dict, unit: str) -> str:
     rows = []
     for name, b in before.items():
         a = after.get(name, {})
         fall = (1 - a["rmse"] / b["rmse"]) * 100 if a and b["rmse"] > 0 else float("nan")
         rows.append([name, b["samples"], f"{b['rmse']:.4g}", f"{a.get('rmse', float('nan')):.4g}",
                      f"{fall:.0f} %"])
-    return _table(["regime", "samples", "RMSE before [N]", "RMSE after [N]", "fall"], rows)
+    return _table(["regime", "samples", f"RMSE before [{unit}]", f"RMSE after [{unit}]",
+                   "fall"], rows)
 
 
 def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
     """Figures (`plot_diagnosis`), ``diagnosis.json`` and ``report.html`` in `out_dir`.
-    `m` has ``t, x, F`` and ``velocity()``; `d` is a `fitting.Diagnosis`. Returns the page."""
+    `m` has ``t, x, F`` and ``velocity()`` (and ``kind``, linear unless it says rotary: then
+    every unit on the page is rotary); `d` is a `fitting.Diagnosis`. Returns the page."""
     out = Path(out_dir)
+    kind = getattr(m, "kind", _units.LINEAR)
+    unit = _units.si_unit("F", kind)
     files = plot_diagnosis(out, m, d)
-    write_json(out / "diagnosis.json", d.to_json())
+    write_json(out / "diagnosis.json", diagnosis_json(d, kind))
     cands = [[c.name, f"{c.score:.3f}", f"{c.t_stat:.1f}", "yes" if c.significant else "no",
-              c.evidence] for c in d.candidates]
+              _units.speak(c.evidence, kind)] for c in d.candidates]
     steps = [["baseline", f"{d.baseline.rmse:.4g}", f"{d.baseline.rmse_holdout:.4g}",
               f"{100 * d.baseline.rel_error:.3g} %"]]
     steps += [[f"+ {' + '.join(s.added[len(before.added):])}", f"{s.rmse:.4g}",
@@ -57,20 +63,21 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
         f"<h1>{html.escape(title)}</h1>",
         f"<p>{intro}</p>" if intro else "",
         "<h2>Error as effects are added</h2>",
-        _table(["model", "RMSE [N]", "held-out RMSE [N]", "relative"], steps),
+        _table(["model", f"RMSE [{unit}]", f"held-out RMSE [{unit}]", "relative"], steps),
         "<h2>Candidate effects (first ranking, on the baseline's residual)</h2>",
         "<p>score = fraction of the held-out residual variance removed; significant = score "
         "&ge; 0.05 and consistent over held-out blocks (t &ge; 3).</p>",
         _table(["effect", "score", "t", "significant", "evidence"], cands),
         f"<h3>Added in code</h3><ul>{code or '<li>nothing</li>'}</ul>",
         "<h2>Error per regime, before and after</h2>",
-        _regimes_table(d.baseline.regimes, d.final.regimes),
+        _regimes_table(_units.speak_json(d.baseline.regimes, kind),
+                       _units.speak_json(d.final.regimes, kind), unit),
         "<h2>Figures</h2>",
         *(f'<p><img src="{f}" alt="{f}" style="max-width:100%"></p>' for f in files),
         "<h2>Baseline parameters</h2>",
-        _params_table(d.baseline.fit),
+        _params_table(d.baseline.fit, kind),
         "<h2>Final parameters</h2>",
-        _params_table(d.final.fit),
+        _params_table(d.final.fit, kind),
     ]
     page = ("<!doctype html><html><head><meta charset='utf-8'><title>"
             f"{html.escape(title)}</title><style>body{{font-family:sans-serif;max-width:1100px;"
