@@ -8,6 +8,7 @@ from . import (
     _config,  # noqa: F401  (x64 policy: must run before any array is made)
     data as data,
     effects as effects,
+    export as export,
     motion as motion,
     paper as paper,
 )

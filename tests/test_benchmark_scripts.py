@@ -72,3 +72,19 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     data = json.loads(out.read_text())
     assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
     assert "confusion" in printed and data["summary"]["singles"] == 1
+
+
+def test_c_step_runs_and_writes_json(tmp_path):
+    import shutil
+
+    if shutil.which("cc") is None:
+        pytest.skip("no C compiler: 'cc' is not on the PATH")
+    out = tmp_path / "c_step.json"
+    printed = _run("c_step.py", "--n", "3000", "--repeats", "1", "--step-calls", "50",
+                   "--json", out)
+    data = json.loads(out.read_text())
+    assert data["meta"]["n"] == 3000
+    assert {r["model"] for r in data["rows"]} >= {"two_state", "gms5", "lugre", "tustin"}
+    assert all(r["model"] in printed for r in data["rows"])
+    assert all(r["c_ns_per_step"] > 0 and r["c_max_error_rel_to_max_force"] < 1e-9
+               for r in data["rows"])

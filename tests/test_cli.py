@@ -57,7 +57,8 @@ def _synthetic(model, noise, seed=0, n=1500):
     return t, x, F
 
 
-@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"], ["diagnose"], ["simulate"], ["compare"]])
+@pytest.mark.parametrize("cmd", [[], ["demo"], ["fit"], ["diagnose"], ["simulate"], ["compare"],
+                                 ["export"]])
 def test_help(cmd):
     r = run(*cmd, "--help")
     assert r.returncode == 0, r.stderr

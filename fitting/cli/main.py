@@ -238,6 +238,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 
+    from . import export
+
+    export.add_parser(sub)
     return parser
 
 
@@ -274,6 +277,7 @@ _OUTPUTS = {
     "simulate": (("--out", "out", "file"),),
     "compare": (("--json", "json", "file"),),
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
+    "export": (("--c", "c_dir", "folder"), ("--mujoco", "mujoco", "file")),
 }
 
 
