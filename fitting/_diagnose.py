@@ -29,12 +29,12 @@ Then, for every candidate effect of `jaxfric.effects`:
    contribution is consistent in that joint step is significant too.
 
 The best significant effect is added (``model + effect``, starting from the regression's
-values; significant effects within 10 % of the best score are each refitted and the
-lower held-out error decides), everything is refitted jointly on the training set
-(twice: from the fitted model, and from the starting model with the effects, which is not
-bent by the missing effect; the better training fit is kept, and a fit that stops at its
-step limit is restarted while that still lowers its error by more than 1 %, up to five
-times),
+values; significant effects within 10 % of the best score are each refitted, and a
+significantly lower held-out error decides, else the more consistent screen), everything
+is refitted jointly on the training set (twice: from the fitted model, and from the
+starting model with the effects, which is not bent by the missing effect; the better
+training fit is kept, and a fit that stops at its step limit is restarted while that still
+lowers its error by more than 1 %, up to five times),
 and the ranking repeats on the new residual until nothing significant is left. The
 held-out RMSE after each addition is reported; an addition whose refit removes less than
 ``min_score/2`` of the held-out SSE is undone and marked not significant, and the next
@@ -299,6 +299,25 @@ def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
     return None
 
 
+def _closest_call(ctx: _Context, held):
+    """Of candidates of nearly equal score whose refits all held up, the one to add, and
+    why in words. The lower held-out error decides when it is significantly lower where
+    the two refits differ (`fitting._evidence`, ``t`` at least `min_t`); otherwise the
+    data cannot tell them apart, and the more consistent screen evidence (larger ``t``)
+    decides."""
+    ranked = sorted(held, key=lambda h: h[1][0].rmse_holdout)
+    (best, (step, resid)), (_, (other, other_resid)) = ranked[0], ranked[1]
+    ev = evidence(other_resid, resid, ctx.test, ctx.v_arr)
+    if ev.t >= ctx.min_t:
+        return best, (f"fits the held-out data better (held-out RMSE {step.rmse_holdout:.4g} "
+                      f"N against {other.rmse_holdout:.4g} N, t = {ev.t:.1f})")
+    chosen, (step, _) = max(held, key=lambda h: h[0].t_stat)
+    return chosen, (f"fits the held-out data as well (held-out RMSE "
+                    f"{step.rmse_holdout:.4g} N, the difference not "
+                    f"significant: t = {ev.t:.1f}) with more consistent evidence "
+                    f"(t = {chosen.t_stat:.1f})")
+
+
 def _try_singles(ctx: _Context, state: _State, ranking):
     """Add the first significant candidate whose refit holds up: ``(accepted, step,
     residual)``, or ``(None, None, None)``. Significant candidates whose scores are within
@@ -316,14 +335,12 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     if len(close) > 1:
         held = [(c, out) for c in close if (out := _holds_up(ctx, state, c)) is not None]
         if held:
-            chosen, (trial, trial_resid) = min(held, key=lambda h: h[1][0].rmse_holdout)
-            for c, (other, _) in held:
+            chosen, best = _closest_call(ctx, held)
+            for c, _ in held:
                 if c is not chosen:
                     c.evidence += (f"; not added: {chosen.name}, of nearly the same score, "
-                                   f"fits the held-out data better (held-out RMSE "
-                                   f"{trial.rmse_holdout:.4g} N against "
-                                   f"{other.rmse_holdout:.4g} N)")
-            return [chosen], trial, trial_resid
+                                   f"{best}")
+            return [chosen], *next(out for c, out in held if c is chosen)
     for chosen in tries[len(close) if len(close) > 1 else 0:]:
         out = _holds_up(ctx, state, chosen)
         if out is not None:
