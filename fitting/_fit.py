@@ -34,6 +34,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import jaxfric
+
 from ._data import check_dataset, Dataset, stack
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
@@ -82,7 +84,21 @@ def fit_datasets(
     checked = [check_dataset(d, where=f"dataset {i}: ") for i, d in enumerate(datasets)]
     problem, y0 = _problem(model, props, free, reparameterize)
     result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps)
-    return result
+    return _as_simulated(result, checked)
+
+
+def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
+    """`result` with `prediction` and `residuals` recomputed by `jaxfric.simulate` on its
+    `fit_model`, the model a result's JSON saves: the compiled solve evaluates the same
+    model fused into its own program, which can differ in the last bits (about 1e-15 N), and
+    a saved fit must reproduce its prediction bit for bit (`simulate --params`). A model
+    with values that are not finite (a diverged fit) keeps the solve's prediction."""
+    leaves = jax.tree_util.tree_leaves(eqx.filter(result.fit_model, eqx.is_inexact_array))
+    if not all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in leaves):
+        return result
+    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v) for d in checked)
+    resid = tuple(jnp.asarray(np.asarray(p) - np.asarray(d.F)) for p, d in zip(pred, checked))
+    return eqx.tree_at(lambda r: (r.prediction, r.residuals), result, (pred, resid))
 
 
 def fit(
