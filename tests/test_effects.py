@@ -50,7 +50,7 @@ def _numpy_terms(t, x, base):
         "position_dependence": base * (0.1 * u - 0.05 * u**2),
         "position_load": 0.7 * u - 0.3 * (u**2 - 1 / 3),
         "drift": base * 1e-3 * (t - t[0]),
-        "ripple": sum(a * np.sin(k * 2 * np.pi * x / 0.9e-3) + b * np.cos(k * 2 * np.pi * x / 0.9e-3)
+        "ripple": sum(a * np.sin(k * 2 * np.pi * x / 9e-4) + b * np.cos(k * 2 * np.pi * x / 9e-4)
                       for k, a, b in ((1, 0.3, 0.1), (2, -0.2, 0.05), (3, 0.1, -0.07))),
         "angle_load": 2.5 * np.sin(x) - 1.2 * np.cos(x),
     }
