@@ -56,15 +56,18 @@ def _grid(name, t, x, v, F):
 
 def _ripple_counts(x, dx) -> np.ndarray:
     """Ripples per revolution to screen (the period ``2 pi / k`` divides a turn): every
-    integer `k` whose period is at least one turn of travel short of the whole travel
-    (`ptp(x)`) and long against the sampling (8 steps of the median `dx`), at most 240
-    of them, spread geometrically when there are more."""
+    integer `k` from the first whose period fits in the travel (`ptp(x)`) up to the last
+    whose period is long against the sampling (8 steps of the median `dx`), at most
+    `RIPPLE_MAX` (720: a period of half a degree). Every integer, as a count one off drifts
+    by a whole period over as many periods as the travel holds."""
     lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
     k_min = max(1, int(np.ceil(2 * np.pi / max(np.ptp(x), 1e-12))))
-    k_max = max(k_min, int(np.floor(2 * np.pi / lo)))
-    if k_max - k_min < 240:
-        return np.arange(k_min, k_max + 1)
-    return np.unique(np.round(np.geomspace(k_min, k_max, 240)).astype(int))
+    k_max = min(RIPPLE_MAX, int(np.floor(2 * np.pi / lo)))
+    return np.arange(k_min, max(k_min, k_max) + 1)
+
+
+#: The most ripples per revolution a diagnosis screens (`_ripple_counts`).
+RIPPLE_MAX = 720
 
 
 #: Parameters entering the term linearly (the regression's unknowns); effects not listed

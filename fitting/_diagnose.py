@@ -400,8 +400,7 @@ def diagnose(
                    min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
                    velocity_window=velocity_window)
     present = {e.name for e in getattr(ctx.model, "effects", ())}
-    default = [n for n in fx.EFFECTS if rotary or n not in fx.ROTARY_EFFECTS]
-    names = [n for n in (effects or default) if n not in present]
+    names = effect_names(effects, present, rotary)
     ctx.log(f"fitting the baseline model on {int(ctx.train.sum())} of {ctx.t.size} samples "
             f"({int(ctx.test.sum())} held out in {blocks // 3} blocks) ...")
     baseline, resid = ctx.step(ctx.model, [], restart=True)
@@ -431,6 +430,13 @@ def diagnose(
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
                      derivatives=None if v is not None else {"method": derivatives,
                                                              "window_s": velocity_window})
+
+
+def effect_names(effects, present, rotary: bool) -> list[str]:
+    """The effects a diagnosis screens: `effects` (default every effect, those of an angle,
+    `jaxfric.effects.ROTARY_EFFECTS`, only if `rotary`) not in `present`."""
+    default = [n for n in fx.EFFECTS if rotary or n not in fx.ROTARY_EFFECTS]
+    return [n for n in (effects or default) if n not in present]
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,

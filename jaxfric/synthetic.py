@@ -25,6 +25,10 @@ ENCODER = 0.05e-6  # m per count
 TRUTHS = ("gms_power", "lugre", "two_state_power")
 HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
           "position_dependence", "position_load", "stribeck", "friction_lag")
+#: Hidden effects of a joint angle: for rotary files (`measurement` with `rotary`).
+HIDDEN_ROTARY = ("ripple", "angle_load")
+ROTARY_SCALE = 300.0  # rad per m: the rotary files' angle is the linear motion times this
+GEAR = 50  # the ripple's count per revolution (a gear of ratio 50 seen on the output)
 
 
 def truth(name: str):
@@ -79,6 +83,13 @@ def hidden_force(name: str, t, x, v, a, base, level, static=None):
         return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
     if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
         return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
+    if name == "ripple":  # a gear's ripple, 50 per turn, with a 4th harmonic no fit has
+        phase = GEAR * x
+        return (0.5 * np.sin(phase + 0.3) + 0.25 * np.sin(2 * phase + 1.2)
+                + 0.12 * np.cos(3 * phase - 0.5) + 0.06 * np.sin(4 * phase))
+    if name == "angle_load":  # gravity on a link: m g r cos(q + phi), 1.4 N m, and a 3 %
+        # spring balancer that is not of that form (a torque linear in the angle)
+        return 1.4 * np.cos(x + 0.7) + 0.03 * 1.4 * (x - travel_mid)
     if name == "friction_lag":  # 35 % of the friction level follows speed changes, tau 0.6 s
         # The level is the truth's Stribeck curve |s(v)| (a speed-dependent level lagging
         # behind the speed, as Hess and Soom measured), held while at rest.
@@ -103,10 +114,16 @@ def finite_acceleration(t, x, ramp: float):
 
 
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
-                dt: float = 1e-2, seed: int = 0):
+                dt: float = 1e-2, seed: int = 0, rotary: bool = False):
     """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
     `seed` through truth `truth_name` plus the `hidden` effects, sampled every `dt`, the
-    position quantised to `ENCODER`, the force with `noise` N of white noise."""
+    position quantised to `ENCODER`, the force with `noise` N of white noise.
+
+    `rotary`: a joint instead (s, rad, N m): the angle is the motion times `ROTARY_SCALE`
+    (a 10 mm travel becomes 3.2 rad, the encoder 15 urad, about 2^18.7 counts per turn),
+    the truth's friction is the same function of the motion (its speeds and presliding
+    lengths scale with the angle), and the hidden effects (`HIDDEN_ROTARY` among them) are
+    functions of the angle."""
     from . import simulate
     from .examples import diagnosis_motion
 
@@ -118,11 +135,12 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     base = np.asarray(simulate(model, t_fine, x_fine, v))
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
     static = np.abs(np.asarray(model.stribeck(v)))
-    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level, static)
+    k = ROTARY_SCALE if rotary else 1.0
+    force = base + sum((hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
                         for h in hidden), np.zeros_like(base))
     keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
     t = t_fine[keep]
-    x = np.round(x_fine[keep] / ENCODER) * ENCODER
+    x = np.round(x_fine[keep] / ENCODER) * ENCODER * k
     F = force[keep] + noise * rng.standard_normal(t.size)
     return t, x, F
