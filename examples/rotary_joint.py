@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+
 FINE = 10  # the truth runs this many times finer than the log
 RATE = 200.0  # Hz, the log
 COUNTS = 2**17  # encoder counts per turn, on the joint
@@ -63,7 +64,7 @@ def truth():
 
 
 def _min_jerk(q0, q1, duration, dt):
-    s = np.arange(1, int(round(duration / dt)) + 1) * dt / duration
+    s = np.arange(1, int(np.rint(duration / dt)) + 1) * dt / duration
     return q0 + (q1 - q0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
 
 
@@ -85,23 +86,24 @@ def moves(seconds: float, seed: int, dt: float) -> np.ndarray:
     return np.concatenate(out)[: int(seconds / dt)]
 
 
-def joint_torque(t, q, v):
-    """The torque the joint's sensor sees (N m): friction plus gravity plus ripple."""
+def joint_torque(t, q, v, ripple=RIPPLE):
+    """The torque the joint's sensor sees (N m): friction plus gravity plus the ripple of
+    first and second harmonic amplitudes `ripple`."""
     import jaxfric
 
     friction = np.asarray(jaxfric.simulate(truth(), t, q, v))
     amp, phase = GRAVITY
     gravity = amp * np.cos(q + phase)
-    ripple = RIPPLE[0] * np.sin(GEAR * q + 0.4) + RIPPLE[1] * np.cos(2 * GEAR * q - 1.0)
-    return friction + gravity + ripple
+    wave = ripple[0] * np.sin(GEAR * q + 0.4) + ripple[1] * np.cos(2 * GEAR * q - 1.0)
+    return friction + gravity + wave
 
 
-def record(seconds: float, seed: int):
+def record(seconds: float, seed: int, ripple=RIPPLE):
     """``(t, q, tau)``: a log as the robot records it (see the module docstring)."""
     dt = 1.0 / (RATE * FINE)
     q_fine = moves(seconds, seed, dt)
     t_fine = np.arange(q_fine.size) * dt
-    tau_fine = joint_torque(t_fine, q_fine, np.gradient(q_fine, t_fine))
+    tau_fine = joint_torque(t_fine, q_fine, np.gradient(q_fine, t_fine), ripple)
     keep = slice(0, None, FINE)
     count = 2 * math.pi / COUNTS
     rng = np.random.default_rng(100 + seed)
@@ -149,12 +151,12 @@ def found(diagnosis: dict) -> dict:
     return out
 
 
-def run(out_dir: Path, quick: bool = False) -> dict:
+def run(out_dir: Path, quick: bool = False, ripple=RIPPLE) -> dict:
     """The worked example in `out_dir`: returns what it prints (see `main`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     seconds = 30.0 if quick else 60.0
-    joint = write_csv(out_dir / "joint.csv", *record(seconds, seed=1))
-    check_t, check_q, check_tau = record(seconds / 2, seed=2)
+    joint = write_csv(out_dir / "joint.csv", *record(seconds, seed=1, ripple=ripple))
+    check_t, check_q, check_tau = record(seconds / 2, seed=2, ripple=ripple)
     check = write_csv(out_dir / "check.csv", check_t, check_q, check_tau)
     diag_json = out_dir / "diagnosis.json"
     diag_text = jaxfric_cli("diagnose", str(joint), "--json", str(diag_json))
@@ -165,12 +167,12 @@ def run(out_dir: Path, quick: bool = False) -> dict:
     header = sim_csv.read_text().splitlines()[0].split(",")
     column = next(i for i, h in enumerate(header) if h.startswith("F_model"))
     predicted = np.loadtxt(sim_csv, delimiter=",", skiprows=1)[:, column]
-    noise_free = joint_torque(check_t, check_q, np.gradient(check_q, check_t))
+    noise_free = joint_torque(check_t, check_q, np.gradient(check_q, check_t), ripple)
     return {
         "samples": int(np.loadtxt(joint, delimiter=",", skiprows=1).shape[0]),
         "seconds": seconds,
         "truth": {"gravity_amplitude": GRAVITY[0], "gravity_phase": GRAVITY[1],
-                  "ripple_per_turn": GEAR, "ripple_amplitudes": list(RIPPLE),
+                  "ripple_per_turn": GEAR, "ripple_amplitudes": list(ripple),
                   "noise": NOISE, "encoder_counts": COUNTS},
         "found": found(diagnosis),
         "holdout_rmse": {"baseline": diagnosis["baseline"]["rmse_holdout"],
@@ -216,9 +218,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="rotary_joint_out", help="folder for the files")
     p.add_argument("--json", help="results JSON (default: OUT/rotary_joint.json)")
     p.add_argument("--quick", action="store_true", help="half the log (for tests)")
+    p.add_argument("--ripple", default=",".join(map(str, RIPPLE)), metavar="A1,A2",
+                   help="the gear ripple's harmonic amplitudes, N m (default: %(default)s)")
     args = p.parse_args(argv)
     out = Path(args.out)
-    r = run(out, quick=args.quick)
+    r = run(out, quick=args.quick, ripple=tuple(float(a) for a in args.ripple.split(",")))
     print(r["diagnose_output"])
     print(table(r))
     target = Path(args.json) if args.json else out / "rotary_joint.json"
