@@ -7,8 +7,8 @@ with a power-law presliding curve (not a model jaxfric fits: `jaxfric.synthetic`
 ``gms_power`` family, in joint units: Fs 6 N m, Fc 4.5 N m, Vs 0.08 rad/s, viscous 2 N m
 s/rad, about 1 mrad of presliding), plus what a joint's torque carries besides friction and
 the friction model does not: the link's gravity ``3 cos(q + 0.5)`` N m (what is left of it
-after an imperfect compensation) and a gear ripple of 80 per turn with two harmonics (0.4
-and 0.15 N m). These are computed here in NumPy, not with `jaxfric.effects`.
+after an imperfect compensation) and a gear ripple of 80 per turn with two harmonics (0.6
+and 0.2 N m). These are computed here in NumPy, not with `jaxfric.effects`.
 
 **The log** (`record`): point-to-point moves between angles in +-1.4 rad with
 minimum-jerk profiles (peak speeds 0.1 to 1.2 rad/s), dwells, and small back-and-forth
@@ -52,7 +52,7 @@ COUNTS = 2**17  # encoder counts per turn, on the joint
 NOISE = 0.04  # N m, torque sensor
 GRAVITY = (3.0, 0.5)  # N m amplitude, phase (rad): 3 cos(q + 0.5)
 GEAR = 80  # ripples per turn
-RIPPLE = (0.4, 0.15)  # N m, first and second harmonic
+RIPPLE = (0.6, 0.2)  # N m, first and second harmonic
 
 
 def truth():
