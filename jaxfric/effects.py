@@ -256,12 +256,12 @@ class Ripple(AbstractEffect):
     period: Array = param("m", constraint="positive", default=2 * 3.141592653589793)
 
     def __check_init__(self):
-        if jnp.shape(self.rip_sin) != jnp.shape(self.rip_cos) or jnp.ndim(self.rip_sin) != 1:
+        if jnp.shape(self.rip_sin) != jnp.shape(self.rip_cos) or jnp.ndim(self.rip_sin) < 1:
             raise ValueError("ripple: rip_sin and rip_cos must be vectors of one length "
                              "(one entry per harmonic)")
 
     def term(self, s):
-        k = jnp.arange(1, jnp.shape(self.rip_sin)[0] + 1, dtype=jnp.result_type(s.x))
+        k = jnp.arange(1, jnp.shape(self.rip_sin)[-1] + 1, dtype=jnp.result_type(s.x))
         phase = 2 * jnp.pi * safe_div(s.x, self.period)[..., None] * k
         return jnp.sum(self.rip_sin * jnp.sin(phase) + self.rip_cos * jnp.cos(phase), axis=-1)
 

@@ -7,6 +7,7 @@ that a linear file is not screened for them."""
 import math
 
 import numpy as np
+import pytest
 
 import jaxfric
 from fitting import _candidates
@@ -56,3 +57,14 @@ def test_angle_effects_are_screened_on_rotary_data_only():
     assert not set(fx.ROTARY_EFFECTS) & set(linear)
     assert set(rotary) == set(fx.EFFECTS)
     assert effect_names(["ripple"], set(), rotary=False) == ["ripple"]  # asked for: screened
+
+
+def test_ripple_harmonics_are_vectors_of_one_length():
+    with pytest.raises(ValueError, match="one entry per harmonic"):
+        fx.Ripple(rip_sin=(0.1, 0.2), rip_cos=(0.1,), period=0.1)
+    one = fx.Ripple(rip_sin=(0.5,), rip_cos=(0.0,), period=0.1)  # a single harmonic: cogging
+    cog = fx.Cogging(cog_sin=0.5, cog_cos=0.0, period=0.1)
+    t = np.linspace(0.0, 1.0, 50)
+    x = np.sin(3 * t)
+    np.testing.assert_allclose(jaxfric.simulate(paper.tustin() + one, t, x),
+                               jaxfric.simulate(paper.tustin() + cog, t, x), rtol=0, atol=1e-12)
