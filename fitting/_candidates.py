@@ -43,12 +43,31 @@ def _grid(name, t, x, v, F):
         span = t[-1] - t[0]
         taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)
         return [fx.FrictionLag(lag_gain=1.0, tau=tau) for tau in taus]
+    if name == "ripple":
+        return [fx.Ripple(rip_sin=np.ones(3), rip_cos=np.ones(3), period=2 * np.pi / k)
+                for k in _ripple_counts(x, dx)]
     if name == "position_dependence":
         return [fx.PositionDependence.for_travel(x, pos_1=1.0, pos_2=1.0)]
     if name == "position_load":
         return [fx.PositionLoad.for_travel(x, load_1=1.0, load_2=1.0)]
     cls = fx.EFFECTS[name]
     return [cls()]
+
+
+def _ripple_counts(x, dx) -> np.ndarray:
+    """Ripples per revolution to screen (the period ``2 pi / k`` divides a turn): every
+    integer `k` from the first whose period fits in the travel (`ptp(x)`) up to the last
+    whose period is long against the sampling (8 steps of the median `dx`), at most
+    `RIPPLE_MAX` (720: a period of half a degree). Every integer, as a count one off drifts
+    by a whole period over as many periods as the travel holds."""
+    lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
+    k_min = max(1, int(np.ceil(2 * np.pi / max(np.ptp(x), 1e-12))))
+    k_max = min(RIPPLE_MAX, int(np.floor(2 * np.pi / lo)))
+    return np.arange(k_min, max(k_min, k_max) + 1)
+
+
+#: The most ripples per revolution a diagnosis screens (`_ripple_counts`).
+RIPPLE_MAX = 720
 
 
 #: Parameters entering the term linearly (the regression's unknowns); effects not listed
@@ -59,6 +78,7 @@ _LINEAR = {
     "cogging": ("cog_sin", "cog_cos"), "position_dependence": ("pos_1", "pos_2"),
     "position_load": ("load_1", "load_2"),
     "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
+    "ripple": ("rip_sin", "rip_cos"), "angle_load": ("g_sin", "g_cos"),
 }
 
 
@@ -73,13 +93,17 @@ def _columns(effect, s):
     names = _LINEAR.get(effect.name)
     if not names:
         return np.asarray(_term(effect, s))[:, None]
-    cols = []
+    zero = effect
     for name in names:
-        unit = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(1.0))
-        others = [n for n in names if n != name]
-        for other in others:
-            unit = eqx.tree_at(lambda e, o=other: getattr(e, o), unit, jnp.asarray(0.0))
-        cols.append(np.asarray(_term(unit, s)))
+        zero = eqx.tree_at(lambda e, n=name: getattr(e, n), zero,
+                           jnp.zeros_like(getattr(effect, name)))
+    cols = []
+    for name in names:  # one column per entry of a vector parameter (ripple's harmonics)
+        z = getattr(zero, name)
+        for j in range(z.size):
+            one = z.ravel().at[j].set(1.0).reshape(z.shape)
+            unit = eqx.tree_at(lambda e, n=name: getattr(e, n), zero, one)
+            cols.append(np.asarray(_term(unit, s)))
     return np.stack(cols, axis=1)
 
 
@@ -101,14 +125,23 @@ def _with_linear(effect, w):
         if np.isfinite(hi - lo):
             lo, hi = lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)
         w = np.clip(w, lo, hi)
-    for name, value in zip(names, w):
-        effect = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, jnp.asarray(float(value)))
+    k = 0
+    for name in names:
+        shape = jnp.shape(getattr(effect, name))
+        size = int(np.prod(shape))
+        value = jnp.asarray(np.asarray(w[k:k + size], float).reshape(shape))
+        effect = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, value)
+        k += size
     return effect
 
 
 def _code(effect) -> str:
     """The one-liner that adds `effect` with its screened values."""
-    args = ", ".join(f"{f.name}={float(getattr(effect, f.name)):.4g}"
+    def value(v):
+        a = np.asarray(v, float)
+        return f"{float(a):.4g}" if a.ndim == 0 else "(" + ", ".join(f"{u:.4g}" for u in a) + ")"
+
+    args = ", ".join(f"{f.name}={value(getattr(effect, f.name))}"
                      for f in dataclasses.fields(effect))
     return f"model + jaxfric.effects.{type(effect).__name__}({args})"
 

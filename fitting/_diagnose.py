@@ -414,14 +414,17 @@ def diagnose(
     derivatives: str = "central",
     velocity_window: float | None = None,
     log: Callable[[str], None] | None = None,
+    rotary: bool = False,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
     ones one at a time with a joint refit after each (see the module docstring).
 
     `effects`: names from `jaxfric.effects.EFFECTS` to consider (default all not already in
-    the model). `fixed`: parameter names of `model` held at their values in every fit
-    (e.g. ``("sigma2",)`` with ``sigma2 = 0`` for a model without viscous friction); the
-    screening then does not let them absorb an effect either. `max_steps`: per fit.
+    the model; the effects of an angle, `jaxfric.effects.ROTARY_EFFECTS`, only when
+    `rotary`: `x` is then an angle in rad). `fixed`: parameter names of `model` held at
+    their values in every fit (e.g. ``("sigma2",)`` with ``sigma2 = 0`` for a model
+    without viscous friction); the screening then does not let them absorb an effect
+    either. `max_steps`: per fit.
     `derivatives`: how the velocity is estimated from the position when `v` is not given
     (``"central"``, ``"savgol"`` or ``"backward"``, over `velocity_window` seconds; see
     `fitting._derivatives`): every fit and screen uses that velocity, and the effects'
@@ -435,7 +438,7 @@ def diagnose(
                    min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
                    velocity_window=velocity_window)
     present = {e.name for e in getattr(ctx.model, "effects", ())}
-    names = [n for n in (effects or fx.EFFECTS) if n not in present]
+    names = effect_names(effects, present, rotary)
     ctx.log(f"fitting the baseline model on {int(ctx.train.sum())} of {ctx.t.size} samples "
             f"({int(ctx.test.sum())} held out in {blocks // 3} blocks) ...")
     baseline, resid = ctx.step(ctx.model, [], restart=True)
@@ -465,6 +468,13 @@ def diagnose(
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
                      derivatives=None if v is not None else {"method": derivatives,
                                                              "window_s": velocity_window})
+
+
+def effect_names(effects, present, rotary: bool) -> list[str]:
+    """The effects a diagnosis screens: `effects` (default every effect, those of an angle,
+    `jaxfric.effects.ROTARY_EFFECTS`, only if `rotary`) not in `present`."""
+    default = [n for n in fx.EFFECTS if rotary or n not in fx.ROTARY_EFFECTS]
+    return [n for n in (effects or default) if n not in present]
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,

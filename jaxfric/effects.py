@@ -20,6 +20,8 @@ Memoryless effects:
 | `position_dependence` | ``F_base * (pos_1 u + pos_2 u^2)`` | pos_1, pos_2 (1) |
 | `position_load` | ``load_1 u + load_2 (u^2 - 1/3)`` | load_1 N, load_2 N |
 | `drift` | ``F_base * drift_rate * (t - t_0)`` | drift_rate 1/s |
+| `ripple` | ``sum_k rip_sin_k sin(2 pi k x/P) + rip_cos_k cos(...)`` | rip_sin, rip_cos N, P m |
+| `angle_load` | ``g_sin sin(x) + g_cos cos(x)`` (x an angle, rad) | g_sin N, g_cos N |
 
 ``a`` is the backward difference of ``v`` (the same in `simulate` and `step`), ``u`` the
 position normalised to [-1, 1] over the travel given at construction, ``t_0`` the first
@@ -32,6 +34,7 @@ the base model's Stribeck curve through a first-order lag: ``lag_gain`` (1), ``t
 """
 
 import abc
+import math
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -240,6 +243,54 @@ class PositionLoad(AbstractEffect):
                 f"{float(self.load_2):+.4g} N (quadratic) at the ends of the travel")
 
 
+class Ripple(AbstractEffect):
+    """A position ripple with harmonics: ``sum_k rip_sin[k] sin(2 pi (k+1) x / period) +
+    rip_cos[k] cos(...)`` (N, or N m on a rotary axis; `period` in m or rad). On a joint the
+    period divides a revolution: ``2 pi / i`` for a ripple `i` times per turn (a gear of ratio
+    `i` seen on the output, a motor's cogging ``2 pi / (poles i)``); the harmonics (as many as
+    the length of `rip_sin`, three by default) shape the ripple that one sine cannot."""
+
+    name: ClassVar[str] = "ripple"
+    rip_sin: Array = param("N", default=(0.0, 0.0, 0.0))
+    rip_cos: Array = param("N", default=(0.0, 0.0, 0.0))
+    period: Array = param("m", constraint="positive", default=2 * 3.141592653589793)
+
+    def __check_init__(self):
+        if jnp.shape(self.rip_sin) != jnp.shape(self.rip_cos) or jnp.ndim(self.rip_sin) < 1:
+            raise ValueError("ripple: rip_sin and rip_cos must be vectors of one length "
+                             "(one entry per harmonic)")
+
+    def term(self, s):
+        k = jnp.arange(1, jnp.shape(self.rip_sin)[-1] + 1, dtype=jnp.result_type(s.x))
+        phase = 2 * jnp.pi * safe_div(s.x, self.period)[..., None] * k
+        return jnp.sum(self.rip_sin * jnp.sin(phase) + self.rip_cos * jnp.cos(phase), axis=-1)
+
+    def describe(self):
+        amps = ", ".join(f"{float(a):.3g}" for a in jnp.hypot(self.rip_sin, self.rip_cos))
+        per = float(self.period)
+        turn = f" ({2 * math.pi / per:.4g} per 2 pi)" if per < 2 * math.pi + 1e-9 else ""
+        return f"ripple {amps} N amplitudes (harmonics 1..), period {per:.4g} m{turn}"
+
+
+class AngleLoad(AbstractEffect):
+    """``g_sin sin(x) + g_cos cos(x)`` with `x` an angle (rad): a torque that depends on the
+    joint angle as gravity on a link does (``m g r cos(q + phi)``), or a spring balancer; N m
+    on a rotary axis (`position_load` is the polynomial form for a linear travel)."""
+
+    name: ClassVar[str] = "angle_load"
+    g_sin: Array = param("N", default=0.0)
+    g_cos: Array = param("N", default=0.0)
+
+    def term(self, s):
+        return self.g_sin * jnp.sin(s.x) + self.g_cos * jnp.cos(s.x)
+
+    def describe(self):
+        amp = float(jnp.hypot(self.g_sin, self.g_cos))
+        phi = math.degrees(math.atan2(float(self.g_sin), float(self.g_cos)))
+        return (f"angle load {float(self.g_sin):+.4g} N sin(q) {float(self.g_cos):+.4g} N cos(q) "
+                f"(amplitude {amp:.4g} N, its maximum at q = {-phi:.4g} deg)")
+
+
 class Drift(AbstractEffect):
     """``F_base * drift_rate * (t - t0)``: the friction level changing slowly over time
     (warm-up, wear), 1/s."""
@@ -329,8 +380,12 @@ class FrictionLag(AbstractEffect):
 EFFECTS: dict[str, type[AbstractEffect]] = {
     cls.name: cls
     for cls in (Viscous, QuadraticDrag, StribeckHump, Presliding, FrictionLag, Inertia, Offset,
-                Asymmetry, Cogging, PositionDependence, PositionLoad, Drift)
+                Asymmetry, Cogging, PositionDependence, PositionLoad, Drift, Ripple, AngleLoad)
 }
+
+#: Effects of an angle (rad) that a diagnosis screens on rotary data only: a period that
+#: divides a revolution and ``sin(q)``, ``cos(q)`` mean nothing on a travel in metres.
+ROTARY_EFFECTS: tuple[str, ...] = ("ripple", "angle_load")
 
 
 def static_force(model, v: Array, force: Array) -> Array:

@@ -25,6 +25,10 @@ ENCODER = 0.05e-6  # m per count
 TRUTHS = ("gms_power", "lugre", "two_state_power")
 HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
           "position_dependence", "position_load", "stribeck", "friction_lag")
+#: Hidden effects of a joint angle: for rotary files (`measurement` with `rotary`).
+HIDDEN_ROTARY = ("ripple", "angle_load")
+ROTARY_SCALE = 300.0  # rad per m: the rotary files' angle is the linear motion times this
+GEAR = 50  # the ripple's count per revolution (a gear of ratio 50 seen on the output)
 
 
 def truth(name: str):
@@ -49,10 +53,34 @@ def _central(t, y):
     return np.gradient(y, t)
 
 
+def _travel_force(name: str, u, base):
+    """The hidden effects of the position `u` in [-1, 1] over the travel."""
+    if name == "position_dependence":  # level +-5 % at the ends of the travel, quadratic
+        return base * (0.04 * u + 0.03 * (u**2 - 1 / 3))
+    # position_load: a spring-like load along the travel, +-0.9 N at the ends
+    return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
+
+
+def _joint_force(name: str, q, dq):
+    """The hidden effects of a joint angle (`HIDDEN_ROTARY`): `q` (rad), `dq` the angle from
+    mid-travel."""
+    if name == "ripple":  # a gear's ripple, 50 per turn, with a 4th harmonic no fit has
+        phase = GEAR * q
+        return (0.5 * np.sin(phase + 0.3) + 0.25 * np.sin(2 * phase + 1.2)
+                + 0.12 * np.cos(3 * phase - 0.5) + 0.06 * np.sin(4 * phase))
+    # gravity on a link, m g r cos(q + phi) of 1.4 N m, and a spring balancer that is not
+    # of that form (3 % of it, linear in the angle)
+    return 1.4 * np.cos(q + 0.7) + 0.03 * 1.4 * dq
+
+
 def hidden_force(name: str, t, x, v, a, base, level, static=None):
     """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
     level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N)."""
     travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
+    if name in HIDDEN_ROTARY:
+        return _joint_force(name, x, x - travel_mid)
+    if name in ("position_dependence", "position_load"):
+        return _travel_force(name, (x - travel_mid) / travel_half, base)
     if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
         excess = np.maximum(np.abs(v) - 5e-3, 0.0)
         return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
@@ -71,12 +99,6 @@ def hidden_force(name: str, t, x, v, a, base, level, static=None):
         return 0.06 * base * (1 - np.exp(-(t - t[0]) / 40.0))
     if name == "offset":
         return np.full_like(t, 0.8)
-    if name == "position_dependence":  # level +-5 % at the ends of the travel, quadratic
-        u = (x - travel_mid) / travel_half
-        return base * (0.04 * u + 0.03 * (u**2 - 1 / 3))
-    if name == "position_load":  # a spring-like load along the travel, +-0.9 N at the ends
-        u = (x - travel_mid) / travel_half
-        return 0.9 * np.tanh(1.5 * u) / np.tanh(1.5)
     if name == "stribeck":  # an extra hump of 2 N below about 1 mm/s
         return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
     if name == "friction_lag":  # 35 % of the friction level follows speed changes, tau 0.6 s
@@ -103,10 +125,16 @@ def finite_acceleration(t, x, ramp: float):
 
 
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
-                dt: float = 1e-2, seed: int = 0):
+                dt: float = 1e-2, seed: int = 0, rotary: bool = False):
     """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
     `seed` through truth `truth_name` plus the `hidden` effects, sampled every `dt`, the
-    position quantised to `ENCODER`, the force with `noise` N of white noise."""
+    position quantised to `ENCODER`, the force with `noise` N of white noise.
+
+    `rotary`: a joint instead (s, rad, N m): the angle is the motion times `ROTARY_SCALE`
+    (a 10 mm travel becomes 3.2 rad, the encoder 15 urad, about 2^18.7 counts per turn),
+    the truth's friction is the same function of the motion (its speeds and presliding
+    lengths scale with the angle), and the hidden effects (`HIDDEN_ROTARY` among them) are
+    functions of the angle."""
     from . import simulate
     from .examples import diagnosis_motion
 
@@ -118,11 +146,12 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     base = np.asarray(simulate(model, t_fine, x_fine, v))
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
     static = np.abs(np.asarray(model.stribeck(v)))
-    force = base + sum((hidden_force(h, t_fine, x_fine, v, a, base, level, static)
+    k = ROTARY_SCALE if rotary else 1.0
+    force = base + sum((hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
                         for h in hidden), np.zeros_like(base))
     keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
     t = t_fine[keep]
-    x = np.round(x_fine[keep] / ENCODER) * ENCODER
+    x = np.round(x_fine[keep] / ENCODER) * ENCODER * k
     F = force[keep] + noise * rng.standard_normal(t.size)
     return t, x, F

@@ -12,11 +12,12 @@ goes wrong, so that a fix shows up as an unexpected pass.
 """
 
 import functools
+import math
 
 import pytest
 
 import fitting
-from jaxfric.synthetic import measurement
+from jaxfric.synthetic import GEAR, measurement
 
 
 pytestmark = pytest.mark.slow
@@ -53,3 +54,28 @@ def test_hidden_effect_is_named_first_and_the_error_falls(name, request):
     clean = run((), 0)
     excess = d.baseline.rmse_holdout - clean.final.rmse_holdout
     assert d.baseline.rmse_holdout - d.final.rmse_holdout >= 0.5 * excess, d.summary()
+
+
+@functools.cache
+def run_rotary(hidden: tuple[str, ...], seed: int):
+    """A joint file (rad, N m: `measurement` with `rotary`), diagnosed as rotary data."""
+    t, x, F = measurement("gms_power", hidden, noise=0.03, dt=1e-2, seed=seed, rotary=True)
+    start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
+    return fitting.diagnose(start, t, x, F, model_name="two-state", rotary=True)
+
+
+ROTARY = {"ripple": 12, "angle_load": 11}
+
+
+@pytest.mark.parametrize("name", list(ROTARY))
+def test_hidden_joint_effect_is_named_first_and_the_error_falls(name):
+    """A gear ripple (50 per turn, four harmonics: one more than the effect has) and a
+    link's gravity with a spring balancer (not of the effect's form) on a joint."""
+    d = run_rotary((name,), ROTARY[name])
+    assert d.final.added and d.final.added[0] == name, d.summary()
+    clean = run_rotary((), 0)
+    excess = d.baseline.rmse_holdout - clean.final.rmse_holdout
+    assert d.baseline.rmse_holdout - d.final.rmse_holdout >= 0.5 * excess, d.summary()
+    if name == "ripple":  # the count per revolution found is the gear's
+        effect = next(e for e in d.model.effects if e.name == "ripple")
+        assert round(2 * math.pi / float(effect.period)) == GEAR, d.summary()

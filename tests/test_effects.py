@@ -50,6 +50,9 @@ def _numpy_terms(t, x, base):
         "position_dependence": base * (0.1 * u - 0.05 * u**2),
         "position_load": 0.7 * u - 0.3 * (u**2 - 1 / 3),
         "drift": base * 1e-3 * (t - t[0]),
+        "ripple": sum(a * np.sin(k * 2 * np.pi * x / 9e-4) + b * np.cos(k * 2 * np.pi * x / 9e-4)
+                      for k, a, b in ((1, 0.3, 0.1), (2, -0.2, 0.05), (3, 0.1, -0.07))),
+        "angle_load": 2.5 * np.sin(x) - 1.2 * np.cos(x),
     }
 
 
@@ -67,6 +70,8 @@ def _effects(x):
         "position_dependence": fx.PositionDependence.for_travel(x, pos_1=0.1, pos_2=-0.05),
         "position_load": fx.PositionLoad.for_travel(x, load_1=0.7, load_2=-0.3),
         "drift": fx.Drift(drift_rate=1e-3),
+        "ripple": fx.Ripple(rip_sin=(0.3, -0.2, 0.1), rip_cos=(0.1, 0.05, -0.07), period=0.9e-3),
+        "angle_load": fx.AngleLoad(g_sin=2.5, g_cos=-1.2),
     }
 
 

@@ -102,6 +102,9 @@ def _effects(x):
         "drift": fx.Drift(drift_rate=0.02),
         "presliding": fx.Presliding(F_pre=2.0, k_pre=2e6),
         "friction_lag": fx.FrictionLag(lag_gain=0.6, tau=0.03),
+        "ripple": fx.Ripple(rip_sin=(0.3, -0.1, 0.05), rip_cos=(0.2, 0.08, -0.04),
+                            period=300 * UM),
+        "angle_load": fx.AngleLoad(g_sin=3.0, g_cos=-1.5),
     }
 
 

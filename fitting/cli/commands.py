@@ -181,7 +181,7 @@ def diagnose_measurement(args, kind: str, m, log, report):
     start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
-                 log=log)
+                 log=log, rotary=m.kind == _units.ROTARY)
     d.velocity, d.derivatives = how, derivatives_json(m, args)
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:

@@ -4,6 +4,8 @@
 ``v``, 0 at the first sample), ``f`` (the base model's force, N) and ``stat`` (its Stribeck
 curve ``s(v)``, N). Effects without a translation are refused by name."""
 
+import numpy as np
+
 from .. import effects as fx
 from ._parts import const, ExportError, Part
 
@@ -55,6 +57,24 @@ def _cogging(e):
         "      total += JF_COG_SIN * sin(ph) + JF_COG_COS * cos(ph); }\n"))
 
 
+def _ripple(e):
+    consts = [const(e, "period", "JF_RIP_PERIOD", "effect ripple")]  # cogging has JF_PERIOD
+    lines = []
+    for k, (a, b) in enumerate(zip(np.asarray(e.rip_sin, float), np.asarray(e.rip_cos, float))):
+        consts += [(f"JF_RIP_SIN_{k + 1}", float(a), f"effect ripple.rip_sin[{k}] [N]"),
+                   (f"JF_RIP_COS_{k + 1}", float(b), f"effect ripple.rip_cos[{k}] [N]")]
+        lines.append(f"      total += JF_RIP_SIN_{k + 1} * sin({k + 1}.0 * ph)"
+                     f" + JF_RIP_COS_{k + 1} * cos({k + 1}.0 * ph);\n")
+    return Part(consts=consts, step=(
+        "    { double ph = 2.0 * 3.141592653589793 * jf_div(x, JF_RIP_PERIOD);\n"
+        + "".join(lines) + "    }\n"))
+
+
+def _angle_load(e):
+    return Part(consts=[_c(e, "g_sin"), _c(e, "g_cos")],
+                step="    total += JF_G_SIN * sin(x) + JF_G_COS * cos(x);\n")
+
+
 def _position_dependence(e):
     return Part(consts=[_c(e, "pos_1"), _c(e, "pos_2"), *_travel(e)], step=(
         f"    {{ double u = {_u(e)};\n"
@@ -101,6 +121,7 @@ _TRANSLATORS = {
     fx.Inertia: _inertia, fx.Offset: _offset, fx.Asymmetry: _asymmetry, fx.Cogging: _cogging,
     fx.PositionDependence: _position_dependence, fx.PositionLoad: _position_load,
     fx.Drift: _drift, fx.Presliding: _presliding, fx.FrictionLag: _friction_lag,
+    fx.Ripple: _ripple, fx.AngleLoad: _angle_load,
 }
 
 #: Names of the effects the C export translates.
