@@ -28,7 +28,7 @@ from .._fields import param
 from .._numerics import linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
-from ..motion import Motion
+from ..motion import consistent_velocity, Motion
 from ._base import AbstractFrictionModel, SimResult
 
 
@@ -267,6 +267,7 @@ class TwoState(AbstractFrictionModel):
 
     def step(self, state: TwoStateState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
+        v = consistent_velocity(v, x - state.x_prev, dt)
         d = jnp.sign(v)
         moving = d != 0
         reversal = moving & (state.last_d != 0) & (d != state.last_d)
@@ -283,6 +284,7 @@ class TwoState(AbstractFrictionModel):
     # ---- whole trajectory -------------------------------------------------------------
 
     def _simulate(self, motion: Motion) -> SimResult:
+        motion = motion.consistent()
         s, rec = self._stage_events(motion)
         active, depth, popped_until = _fill_records(rec)
         h_e = self._stage_branch_starts(motion, rec, popped_until)
