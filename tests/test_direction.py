@@ -2,6 +2,8 @@
 (noise) must not drive the hysteresis models out of their Stribeck bounds; the Python
 models, their per-sample `step`, the NumPy reference and the reversal bound all agree."""
 
+import warnings
+
 import equinox as eqx
 import numpy as np
 import pytest
@@ -95,3 +97,72 @@ def test_reversal_bound_counts_the_consistent_direction():
     r = jaxfric.simulate(paper.two_state(), t, x, v, max_reversals=0, full_output=True)
     assert np.all(np.isfinite(np.asarray(r.force)))
     assert reversal_bound(t, x, v) == 6  # min(64, n): counted on the consistent direction
+
+
+def standstill_motion(seed: int, quantum: float = 0.0):
+    """Moves of 2 mm separated by 1 s standstills, sampled at 1 ms, with 1 um position
+    noise (and, if `quantum` > 0, encoder quantisation): the true reversals are known (3)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 7.0, 1e-3)
+    knots_t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
+    knots_x = [0.0, 2e-3, 2e-3, 0.0, 0.0, 2e-3, 2e-3, 0.0]
+    x_true = np.interp(t, knots_t, knots_x)
+    x = x_true + 1e-6 * rng.standard_normal(t.size)
+    if quantum:
+        x = quantum * np.round(x / quantum)
+    return t, x, x_true
+
+
+def count_reversals(x):
+    from jaxfric.motion import reversals
+    return int(np.count_nonzero(reversals(np.sign(np.r_[0.0, np.diff(x)]))[0]))
+
+
+@pytest.mark.parametrize("quantum", [0.0, 2e-6])
+def test_deadband_keeps_noisy_standstill_out_of_the_memory(quantum):
+    from jaxfric.motion import estimate_deadband, play
+
+    model = paper.two_state(stack_size=8)
+    Fc = float(model.stribeck.Fc)
+    t, x, x_true = standstill_motion(7, quantum)
+    rests = [((t > lo) & (t < hi), sign) for lo, hi, sign in
+             ((1.2, 2.0, 1.0), (3.2, 4.0, -1.0), (5.2, 6.0, 1.0))]
+    assert count_reversals(x_true) == 3
+    assert count_reversals(x) > 100  # the noise alone makes reversals
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jaxfric.StackOverflowWarning)
+        raw = jaxfric.simulate(model, t, x, full_output=True)
+    if not quantum:
+        assert int(raw.overflow) > 0  # without a deadband the 8 slots overflow
+    f_raw = np.asarray(raw.parts["hysteresis"])
+    assert min(np.min(sign * f_raw[w]) for w, sign in rests) < Fc  # fake presliding loops
+    b = estimate_deadband(x)
+    assert 2e-6 <= b <= 2e-5  # of the order of the noise / encoder step, far below a move
+    assert count_reversals(np.asarray(play(x, b))) == 3
+    r = jaxfric.simulate(model, t, x, deadband="auto", full_output=True)
+    assert int(r.overflow) == 0
+    assert int(np.max(np.asarray(r.parts["depth"]))) <= 2
+    f_h = np.asarray(r.parts["hysteresis"])
+    for w, sign in rests:  # standstills stay on the sliding side: no presliding loop
+        assert np.min(sign * f_h[w]) >= Fc
+    # with a noisy velocity column the played position still decides alone
+    v = np.gradient(x_true, t) + 1e-3 * np.random.default_rng(8).standard_normal(t.size)
+    r_v = jaxfric.simulate(model, t, x, v, deadband=b, full_output=True)
+    assert int(r_v.overflow) == 0
+    f_v = np.asarray(r_v.parts["hysteresis"])
+    for w, sign in rests:
+        assert np.min(sign * f_v[w]) >= Fc
+
+
+def test_deadband_zero_changes_nothing_and_bad_values_raise():
+    t, x, _ = standstill_motion(9)
+    model = paper.two_state(stack_size=64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", jaxfric.StackOverflowWarning)
+        a = np.asarray(jaxfric.simulate(model, t[:3000], x[:3000]))
+        b = np.asarray(jaxfric.simulate(model, t[:3000], x[:3000], deadband=0.0))
+    np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match="deadband"):
+        jaxfric.simulate(model, t, x, deadband=-1e-6)
+    with pytest.raises(ValueError, match="deadband"):
+        jaxfric.simulate(model, t, x, deadband="noise")
