@@ -157,7 +157,8 @@ def simulate(
       (a Python int; static). `TwoState` evaluates its reversal terms on a list of this
       size instead of on every sample. ``None``: computed from the data when they are
       concrete (`jaxfric.reversal_bound`), else ``n`` (inside ``jit``/``vmap``: pass it for
-      speed). A bound below the true count gives NaN forces, never silently wrong ones.
+      speed). A bound below the true count gives NaN forces, never silently wrong ones,
+      and counts the reversals beyond it in `SimResult.overflow` (a warning outside ``jit``).
     - `deadband`: half-width (m) of a play on the position against noisy standstill
       (`jaxfric.motion.play`, docs/algorithm.md section 1): the models see the played
       position, and a given `v` is 0 where it does not move. ``"auto"``: estimated from
@@ -177,7 +178,9 @@ def simulate(
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "
-            "points were dropped. Increase the model's stack_size.",
+            "points were dropped. Increase the model's stack_size (CLI: --stack-size), or "
+            "max_reversals if you gave one (then the forces are NaN), or filter noisy "
+            "standstill with a deadband.",
             StackOverflowWarning,
             stacklevel=2,
         )

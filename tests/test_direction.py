@@ -166,3 +166,25 @@ def test_deadband_zero_changes_nothing_and_bad_values_raise():
         jaxfric.simulate(model, t, x, deadband=-1e-6)
     with pytest.raises(ValueError, match="deadband"):
         jaxfric.simulate(model, t, x, deadband="noise")
+
+
+def test_too_small_max_reversals_is_counted_under_jit_and_vmap():
+    model = paper.two_state()
+    t, x, _ = standstill_motion(3)
+    t, x = t[::10], np.interp(t[::10], [0.0, 1.0, 2.0, 3.0, 7.0], [0.0, 1e-3, 0.0, 1e-3, 0.0])
+    count = 3
+
+    @eqx.filter_jit
+    def run(x):
+        return jaxfric.simulate(model, t, x, max_reversals=1, full_output=True)
+
+    r = run(x)
+    assert int(r.overflow) == count - 1
+    assert np.all(np.isnan(np.asarray(r.force)))
+    batched = eqx.filter_vmap(run)(np.stack([x, 0.5 * x]))
+    np.testing.assert_array_equal(np.asarray(batched.overflow), [count - 1, count - 1])
+    ok = eqx.filter_jit(lambda x: jaxfric.simulate(model, t, x, max_reversals=4,
+                                                   full_output=True))(x)
+    assert int(ok.overflow) == 0 and np.all(np.isfinite(np.asarray(ok.force)))
+    with pytest.warns(jaxfric.StackOverflowWarning, match="max_reversals"):
+        jaxfric.simulate(model, t, x, max_reversals=1)

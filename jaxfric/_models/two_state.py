@@ -294,13 +294,16 @@ class TwoState(AbstractFrictionModel):
         viscous = self.sigma2 * motion.v
         # A bound below the true count (only if given by hand) would drop reversals: NaN.
         limit = motion.x.shape[0] if motion.max_reversals is None else motion.max_reversals
-        fits = jnp.sum(motion.reversal) <= limit
+        count = jnp.sum(motion.reversal).astype(jnp.int32)
+        fits = count <= limit
         f_h = jnp.where(fits, f_h, jnp.nan)
         lag = jnp.where(fits, lag, jnp.nan)
+        # ... and is counted, also under jit/vmap: the reversals beyond the bound.
+        dropped = jnp.where(fits, 0, count - limit).astype(rec.overflow.dtype)
         return SimResult(
             force=f_h + lag + viscous,
             parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
-            overflow=rec.overflow,
+            overflow=rec.overflow + dropped,
         )
 
     # The stages of `_simulate`, also timed one by one by benchmarks/profile_two_state.py.
