@@ -298,7 +298,11 @@ def run_simulate(args) -> int:
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
     args.derivatives = args.derivatives or "central"
     v, _ = identification_velocity(m, args, log)
-    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
+    model = _with_stack_size(model, getattr(args, "stack_size", None))
+    deadband = _deadband_option(getattr(args, "deadband", None), args.params)
+    if deadband is not None:
+        log(f"deadband: {deadband}")
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, deadband=deadband)
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
@@ -315,8 +319,42 @@ def run_simulate(args) -> int:
     log(f"{len(m)} samples written to {target} (columns {header})")
     if int(out.overflow) > 0:
         print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
-              "stack_size", file=sys.stderr)
+              "--stack-size, or filter noisy standstill with --deadband auto",
+              file=sys.stderr)
     return 0
+
+
+def _with_stack_size(model, stack_size):
+    """`model` with `stack_size` memory slots (a two-state model; `None`: unchanged)."""
+    if stack_size is None:
+        return model
+    if stack_size < 1:
+        raise _data.DataError(f"--stack-size must be >= 1, got {stack_size}")
+    if not hasattr(model, "stack_size"):
+        raise _data.DataError("--stack-size applies to the two-state model only")
+    import dataclasses
+
+    return dataclasses.replace(model, stack_size=stack_size)
+
+
+def _deadband_option(text, params):
+    """The `jaxfric.simulate` deadband from ``--deadband`` (a number in SI, 'auto',
+    'none'), else from the ``deadband`` saved in the `params` JSON, else None."""
+    if text is None and params:
+        with open(params) as f:
+            text = json.load(f).get("deadband")
+    if text is None or str(text).lower() == "none":
+        return None
+    if str(text).lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise _data.DataError(
+            f"--deadband must be a number, 'auto' or 'none', got {text!r}") from None
+    if not value >= 0:
+        raise _data.DataError(f"--deadband must be >= 0, got {value}")
+    return value
 
 
 def run_compare(args) -> int:

@@ -203,6 +203,12 @@ def build_parser() -> argparse.ArgumentParser:
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model (default: %(default)s; the paper's values)")
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
+    p.add_argument("--stack-size", type=int, metavar="N",
+                   help="memory stack slots of a two-state model (default: the model's)")
+    p.add_argument("--deadband", metavar="B|auto|none",
+                   help="play on the position against noisy standstill, in SI (m or rad), "
+                        "'auto' (estimated from the positions) or 'none' (default: the "
+                        "value saved in --params, else none)")
     p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_derivative_options(p, default=None)
