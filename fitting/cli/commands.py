@@ -102,10 +102,12 @@ def run_fit(args) -> int:
 
         return fit_joints(args, kind, log, fit_measurement)
     m = load_for_cli(args, log)
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     res = fit_measurement(args, kind, m, log)
     if args.json:
+        extra = {} if deadband is None else {"deadband": deadband}
         write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
-                               "derivatives": derivatives_json(m, args)})
+                               "derivatives": derivatives_json(m, args), **extra})
         log(f"JSON written to {args.json}")
     if args.plot:
         plot_fit(args.plot, m, res, kind)
@@ -297,12 +299,10 @@ def run_simulate(args) -> int:
                  "tustin": paper.tustin}[kind]()
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
     args.derivatives = args.derivatives or "central"
+    m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, _ = identification_velocity(m, args, log)
-    model = _with_stack_size(model, getattr(args, "stack_size", None))
-    deadband = _deadband_option(getattr(args, "deadband", None), args.params)
-    if deadband is not None:
-        log(f"deadband: {deadband}")
-    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, deadband=deadband)
+    model = _with_stack_size(model, args.stack_size)
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
@@ -335,6 +335,24 @@ def _with_stack_size(model, stack_size):
     import dataclasses
 
     return dataclasses.replace(model, stack_size=stack_size)
+
+
+def played_measurement(m, deadband, log):
+    """``(m, b)``: `m` with its positions through the play of half-width ``b`` (SI;
+    `jaxfric.motion.play`; ``deadband``: a number, 'auto' to estimate it, or None for
+    none, then ``b`` is None). Fit and simulate use the same, so that ``simulate --params``
+    reproduces the fit."""
+    if deadband is None:
+        return m, None
+    import equinox as eqx
+
+    from jaxfric.motion import estimate_deadband, play
+
+    b = estimate_deadband(m.x) if deadband == "auto" else float(deadband)
+    log(f"deadband: {b:.4g} {m.unit('x')} (play on the position against noisy standstill)")
+    if b == 0:
+        return m, b
+    return eqx.tree_at(lambda mm: mm.x, m, np.asarray(play(np.asarray(m.x), b))), b
 
 
 def _deadband_option(text, params):
