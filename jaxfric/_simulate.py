@@ -10,7 +10,7 @@ import numpy as np
 from jaxtyping import ArrayLike
 
 from ._models._base import AbstractFrictionModel, SimResult
-from .motion import make_motion, reversal_bound
+from .motion import estimate_deadband, make_motion, play, reversal_bound
 
 
 class StackOverflowWarning(UserWarning):
@@ -96,6 +96,26 @@ def _checked_motion(t, x, v):
     return t, x, v
 
 
+def apply_deadband(x, v, deadband):
+    """``(x, v)`` through the play of half-width `deadband` (m; ``"auto"``: estimated from
+    concrete `x`; ``None``/0: unchanged); a given `v` is set to 0 where the played position
+    does not move, so the direction comes from the played position alone."""
+    if isinstance(deadband, str):
+        if deadband != "auto":
+            raise ValueError(f"deadband must be a number, None or 'auto', got {deadband!r}")
+        if isinstance(x, jax.core.Tracer):
+            raise ValueError("deadband='auto' needs concrete positions; pass a number")
+        deadband = estimate_deadband(np.asarray(x))
+    if deadband is None or (not isinstance(deadband, jax.core.Tracer) and float(deadband) == 0):
+        return x, v
+    if not isinstance(deadband, jax.core.Tracer) and not float(deadband) >= 0:
+        raise ValueError(f"deadband must be >= 0, got {deadband}")
+    x = play(x, deadband)
+    if v is not None:
+        v = jnp.where(jnp.diff(x, prepend=x[:1]) != 0, v, 0.0)
+    return x, v
+
+
 def _max_reversals(model, t, x, v, max_reversals: int | None) -> int | None:
     """The static size of the reversal list: the user's, or counted on concrete data for
     the models that use one (`_uses_reversal_bound`)."""
@@ -117,6 +137,7 @@ def simulate(
     *,
     full_output: bool = False,
     max_reversals: int | None = None,
+    deadband: float | str | None = None,
 ):
     """Friction force of `model` along a motion.
 
@@ -136,7 +157,12 @@ def simulate(
       (a Python int; static). `TwoState` evaluates its reversal terms on a list of this
       size instead of on every sample. ``None``: computed from the data when they are
       concrete (`jaxfric.reversal_bound`), else ``n`` (inside ``jit``/``vmap``: pass it for
-      speed). A bound below the true count gives NaN forces, never silently wrong ones.
+      speed). A bound below the true count gives NaN forces, never silently wrong ones,
+      and counts the reversals beyond it in `SimResult.overflow` (a warning outside ``jit``).
+    - `deadband`: half-width (m) of a play on the position against noisy standstill
+      (`jaxfric.motion.play`, docs/algorithm.md section 1): the models see the played
+      position, and a given `v` is 0 where it does not move. ``"auto"``: estimated from
+      `x` (`jaxfric.motion.estimate_deadband`; concrete data only). ``None`` or 0: none.
 
     **Returns:** the friction force, N, one per sample (or a `SimResult`).
 
@@ -145,13 +171,16 @@ def simulate(
     `StackOverflowWarning` when memory entries had to be dropped (only outside traced code).
     """
     t, x, v = _checked_motion(t, x, v)
+    x, v = apply_deadband(x, v, deadband)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
     result = _run(model, t, x, v, max_reversals)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "
-            "points were dropped. Increase the model's stack_size.",
+            "points were dropped. Increase the model's stack_size (CLI: --stack-size), or "
+            "max_reversals if you gave one (then the forces are NaN), or filter noisy "
+            "standstill with a deadband.",
             StackOverflowWarning,
             stacklevel=2,
         )

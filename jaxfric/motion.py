@@ -14,6 +14,7 @@ The functions on NumPy arrays (`velocity`, `smooth_derivatives`, `reversals`,
 """
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -55,6 +56,61 @@ class Motion(eqx.Module):
     def reversal(self) -> Array:
         """True at the first moving sample whose direction differs from the last motion's."""
         return self.moving & (self.prev_last_d != 0) & (self.d != self.prev_last_d)
+
+    def consistent(self) -> "Motion":
+        """This motion with `v` replaced by `consistent_velocity` (and the directions
+        re-derived): what the models with a memory in position (`TwoState`, `GMS`) use."""
+        v = consistent_velocity(self.v, self.dx, self.dt)
+        return make_motion(self.t, self.x, v, self.max_reversals)
+
+
+def consistent_velocity(v: Array, dx: Array, dt: Array) -> Array:
+    """The velocity (m/s) the hysteresis models take their direction from: `v` where its
+    sign agrees with the position step `dx` (m) or either is 0, the step's backward
+    difference ``dx / dt`` (0 for ``dt <= 0``) where the two disagree (a noisy velocity
+    column). So the direction of motion and the displacement come from one signal
+    (docs/algorithm.md section 1) and the hysteresis force stays within the Stribeck
+    bounds whatever `v` is given."""
+    v, dx, dt = jnp.asarray(v), jnp.asarray(dx), jnp.asarray(dt)
+    disagree = v * dx < 0
+    ok = dt > 0
+    return jnp.where(disagree, jnp.where(ok, dx / jnp.where(ok, dt, 1.0), 0.0), v)
+
+
+def play(x: Array, deadband) -> Array:
+    """The position `x` (m) seen through a play (backlash) of half-width `deadband` (m):
+    ``p_0 = x_0``, ``p_n = clip(p_{n-1}, x_n - deadband, x_n + deadband)``. `p` moves only
+    when `x` leaves the band around it, so noise and encoder toggling at standstill smaller
+    than the band give no motion, no reversal and no presliding loop; a real motion is
+    followed with a lag of at most `deadband`. ``deadband = 0`` gives `x` itself."""
+    x = jnp.asarray(x)
+    b = jnp.asarray(deadband, dtype=x.dtype)
+
+    def body(p, xn):
+        p = jnp.clip(p, xn - b, xn + b)
+        return p, p
+
+    _, p = jax.lax.scan(body, x[0], x)
+    return p
+
+
+def estimate_deadband(x) -> float:
+    """A deadband (m) for `play` from the position record `x` (concrete): the larger of
+    the encoder step (the smallest non-zero position step, when the record is quantised,
+    i.e. that step is at least 1 % of the median non-zero step) and six times the
+    position noise, estimated robustly from second differences (``1.4826 * median|d2x| /
+    sqrt(6)`` for white noise; smooth motion sampled finely adds little to ``d2x``).
+    0 for a record without steps."""
+    x = np.asarray(x, dtype=np.float64)
+    steps = np.abs(np.diff(x))
+    steps = steps[steps > 0]
+    if steps.size == 0:
+        return 0.0
+    smallest = float(np.min(steps))
+    quantum = smallest if smallest >= 0.01 * float(np.median(steps)) else 0.0
+    d2 = np.abs(np.diff(x, 2))
+    sigma = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
+    return max(quantum, 6.0 * sigma)
 
 
 def backward_velocity(t: Array, x: Array) -> Array:
@@ -146,7 +202,8 @@ def reversal_bound(t, x, v=None) -> int:
         dx = np.diff(x, prepend=x[:1])
         d = np.sign(np.where(dt > 0, dx, 0.0))
     else:
-        d = np.sign(np.asarray(v))
+        dx = np.diff(x, prepend=x[:1])
+        d = np.sign(np.asarray(consistent_velocity(v, dx, np.diff(t, prepend=t[:1]))))
     moving = d[d != 0]
     count = int(np.count_nonzero(moving[1:] != moving[:-1]))
     return min(max(64, 1 << count.bit_length()), max(int(t.shape[0]), 1))

@@ -238,13 +238,16 @@ def _shape_scalar_func(shape, shape_params, Fs):
 # ---------------------------------------------------------------------------------------
 
 
-def prepare(t, x, v=None):
+def prepare(t, x, v=None, consistent=False):
     """Time steps, velocity and direction signals, spec section 1.
 
     Args:
         t: sample times [s], 1-D, strictly increasing.
         x: positions [m], same length.
         v: optional velocities [m/s]. If None: ``v_0 = 0``, ``v_n = (x_n - x_{n-1})/dt_n``.
+        consistent: for the models with a memory in position (two-state, GMS): where the
+            sign of a given ``v_n`` disagrees with the step ``x_n - x_{n-1}``, use the step's
+            backward difference instead, so direction and displacement agree.
 
     Returns:
         dict with float64 arrays ``t``, ``x``, ``dt`` (dt_0 = 0), ``v``; int arrays
@@ -270,6 +273,11 @@ def prepare(t, x, v=None):
         v = np.array(v, dtype=np.float64)
         if v.shape != t.shape:
             raise ValueError("v must have the same shape as t")
+        if consistent:
+            for n in range(1, N):
+                step = x[n] - x[n - 1]
+                if (v[n] > 0.0 and step < 0.0) or (v[n] < 0.0 and step > 0.0):
+                    v[n] = step / dt[n]
 
     d = np.zeros(N, dtype=np.int64)
     moving = np.zeros(N, dtype=bool)
@@ -351,7 +359,7 @@ def two_state(
     """
     if K < 3:
         raise ValueError("K must be >= 3")
-    prep = prepare(t, x, v)
+    prep = prepare(t, x, v, consistent=True)
     xs, vs, dts = prep["x"], prep["v"], prep["dt"]
     d, D, moving = prep["d"], prep["D"], prep["moving"]
     N = xs.size
@@ -471,7 +479,7 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
 
     Choice: the position increment of sample 0 is 0 (x_{-1} := x_0).
     """
-    prep = prepare(t, x, v)
+    prep = prepare(t, x, v, consistent=True)
     xs, vs, dts = prep["x"], prep["v"], prep["dt"]
     d, D, moving = prep["d"], prep["D"], prep["moving"]
     nu = [float(val) for val in np.atleast_1d(np.asarray(nu, dtype=np.float64))]

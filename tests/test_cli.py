@@ -222,7 +222,9 @@ def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):
     path = _write(tmp_path / "run.csv", "t,x,F", (t, x, F))
     r = run("fit", path, "--model", "tustin", "--json", tmp_path / "fit.json", "--quiet")
     assert r.returncode == 0, r.stderr
-    fit_rmse = json.loads((tmp_path / "fit.json").read_text())["rmse"]
+    fit_json = json.loads((tmp_path / "fit.json").read_text())
+    fit_rmse = fit_json["rmse"]
+    assert fit_json["overflow"] == 0  # memory overflow is part of the result
     r = run("simulate", path, "--params", tmp_path / "fit.json", "--out", tmp_path / "sim.csv")
     assert r.returncode == 0, r.stderr
     sim = np.genfromtxt(tmp_path / "sim.csv", delimiter=",", names=True)

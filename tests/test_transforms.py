@@ -242,8 +242,10 @@ def test_reversal_bound_and_max_reversals():
             exact = jaxfric.simulate(model, t, x, vel, max_reversals=count)
             np.testing.assert_allclose(traced, ref, atol=ATOL, rtol=0)
             np.testing.assert_allclose(exact, ref, atol=ATOL, rtol=0)
-            short = jaxfric.simulate(model, t, x, vel, max_reversals=count - 1,
-                                     full_output=True)
+            with pytest.warns(jaxfric.StackOverflowWarning, match="max_reversals"):
+                short = jaxfric.simulate(model, t, x, vel, max_reversals=count - 1,
+                                         full_output=True)
+            assert int(short.overflow) == 1  # counted, not a silent NaN
             assert np.all(np.isnan(short.force))
             assert np.all(np.isnan(short.parts["hysteresis"]))
     # A motion without reversals has a bound of its own; a negative bound is refused.

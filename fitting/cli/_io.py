@@ -113,6 +113,7 @@ def result_json(kind: str, res, m) -> dict:
         "converged": bool(res.converged),
         "status": res.status,
         "iterations": int(res.num_steps),
+        "overflow": int(res.overflow),  # memory entries dropped in the final simulation
         "fitted_model": saved_model(res.fit_model),
     }
 

@@ -102,10 +102,12 @@ def run_fit(args) -> int:
 
         return fit_joints(args, kind, log, fit_measurement)
     m = load_for_cli(args, log)
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     res = fit_measurement(args, kind, m, log)
     if args.json:
+        extra = {} if deadband is None else {"deadband": deadband}
         write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
-                               "derivatives": derivatives_json(m, args)})
+                               "derivatives": derivatives_json(m, args), **extra})
         log(f"JSON written to {args.json}")
     if args.plot:
         plot_fit(args.plot, m, res, kind)
@@ -297,7 +299,9 @@ def run_simulate(args) -> int:
                  "tustin": paper.tustin}[kind]()
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
     args.derivatives = args.derivatives or "central"
+    m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, _ = identification_velocity(m, args, log)
+    model = _with_stack_size(model, args.stack_size)
     out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
@@ -315,8 +319,60 @@ def run_simulate(args) -> int:
     log(f"{len(m)} samples written to {target} (columns {header})")
     if int(out.overflow) > 0:
         print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
-              "stack_size", file=sys.stderr)
+              "--stack-size, or filter noisy standstill with --deadband auto",
+              file=sys.stderr)
     return 0
+
+
+def _with_stack_size(model, stack_size):
+    """`model` with `stack_size` memory slots (a two-state model; `None`: unchanged)."""
+    if stack_size is None:
+        return model
+    if stack_size < 1:
+        raise _data.DataError(f"--stack-size must be >= 1, got {stack_size}")
+    if not hasattr(model, "stack_size"):
+        raise _data.DataError("--stack-size applies to the two-state model only")
+    import dataclasses
+
+    return dataclasses.replace(model, stack_size=stack_size)
+
+
+def played_measurement(m, deadband, log):
+    """``(m, b)``: `m` with its positions through the play of half-width ``b`` (SI;
+    `jaxfric.motion.play`; ``deadband``: a number, 'auto' to estimate it, or None for
+    none, then ``b`` is None). Fit and simulate use the same, so that ``simulate --params``
+    reproduces the fit."""
+    if deadband is None:
+        return m, None
+    import equinox as eqx
+
+    from jaxfric.motion import estimate_deadband, play
+
+    b = estimate_deadband(m.x) if deadband == "auto" else float(deadband)
+    log(f"deadband: {b:.4g} {m.unit('x')} (play on the position against noisy standstill)")
+    if b == 0:
+        return m, b
+    return eqx.tree_at(lambda mm: mm.x, m, np.asarray(play(np.asarray(m.x), b))), b
+
+
+def _deadband_option(text, params):
+    """The `jaxfric.simulate` deadband from ``--deadband`` (a number in SI, 'auto',
+    'none'), else from the ``deadband`` saved in the `params` JSON, else None."""
+    if text is None and params:
+        with open(params) as f:
+            text = json.load(f).get("deadband")
+    if text is None or str(text).lower() == "none":
+        return None
+    if str(text).lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise _data.DataError(
+            f"--deadband must be a number, 'auto' or 'none', got {text!r}") from None
+    if not value >= 0:
+        raise _data.DataError(f"--deadband must be >= 0, got {value}")
+    return value
 
 
 def run_compare(args) -> int:

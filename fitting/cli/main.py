@@ -147,6 +147,12 @@ def _add_kind_options(p) -> None:
     p.add_argument("--rotary", action="store_true", help="same as --kind rotary")
 
 
+def _add_deadband_option(p, default: str) -> None:
+    p.add_argument("--deadband", metavar="B|auto|none",
+                   help="play on the position against noisy standstill, in SI (m or rad), "
+                        f"'auto' (estimated from the positions) or 'none' (default: {default})")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``jaxfric`` argument parser (also used to print the help into the docs)."""
     parser = argparse.ArgumentParser(
@@ -182,6 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model to fit (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    _add_deadband_option(p, "none; the value used is saved in --json")
     p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
     p.add_argument("--params", metavar="JSON",
                    help="start from this model (a fit, a diagnosis or a saved model; its "
@@ -203,6 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model (default: %(default)s; the paper's values)")
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
+    p.add_argument("--stack-size", type=int, metavar="N",
+                   help="memory stack slots of a two-state model (default: the model's)")
+    _add_deadband_option(p, "the value saved in --params, else none")
     p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_derivative_options(p, default=None)

@@ -20,7 +20,9 @@ class SimResult(eqx.Module):
       the number of memory-stack entries in use).
     - `overflow`: how many memory entries were dropped because the stack was full (an int;
       0 for models without a stack). Nonzero means the result may deviate from the model's
-      exact memory behaviour: raise ``stack_size``.
+      exact memory behaviour: raise ``stack_size``. For `TwoState` it also counts the
+      reversals beyond a `max_reversals` bound given too small (the forces are then NaN),
+      so that a traced caller (``jit``/``vmap``) sees why.
     """
 
     force: Array

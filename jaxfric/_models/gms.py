@@ -10,7 +10,7 @@ from .._fields import param
 from .._numerics import safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
-from ..motion import Motion
+from ..motion import consistent_velocity, Motion
 from ._base import AbstractFrictionModel, SimResult
 
 
@@ -107,6 +107,7 @@ class GMS(AbstractFrictionModel):
 
     def step(self, state: GMSState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
+        v = consistent_velocity(v, x - state.x_prev, dt)
         d = jnp.sign(v)
         moving = d != 0
         same = moving & (d == state.last_d)
@@ -119,6 +120,7 @@ class GMS(AbstractFrictionModel):
         return new_state, jnp.sum(F) + self.sigma2 * v
 
     def _simulate(self, motion: Motion) -> SimResult:
+        motion = motion.consistent()
         s = self.stribeck.effective(motion.v, motion.last_d)
         moving = motion.moving
         same = moving & (motion.d == motion.prev_last_d)

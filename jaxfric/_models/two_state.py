@@ -28,7 +28,7 @@ from .._fields import param
 from .._numerics import linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
-from ..motion import Motion
+from ..motion import consistent_velocity, Motion
 from ._base import AbstractFrictionModel, SimResult
 
 
@@ -267,6 +267,7 @@ class TwoState(AbstractFrictionModel):
 
     def step(self, state: TwoStateState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
+        v = consistent_velocity(v, x - state.x_prev, dt)
         d = jnp.sign(v)
         moving = d != 0
         reversal = moving & (state.last_d != 0) & (d != state.last_d)
@@ -283,6 +284,7 @@ class TwoState(AbstractFrictionModel):
     # ---- whole trajectory -------------------------------------------------------------
 
     def _simulate(self, motion: Motion) -> SimResult:
+        motion = motion.consistent()
         s, rec = self._stage_events(motion)
         active, depth, popped_until = _fill_records(rec)
         h_e = self._stage_branch_starts(motion, rec, popped_until)
@@ -292,13 +294,16 @@ class TwoState(AbstractFrictionModel):
         viscous = self.sigma2 * motion.v
         # A bound below the true count (only if given by hand) would drop reversals: NaN.
         limit = motion.x.shape[0] if motion.max_reversals is None else motion.max_reversals
-        fits = jnp.sum(motion.reversal) <= limit
+        count = jnp.sum(motion.reversal).astype(jnp.int32)
+        fits = count <= limit
         f_h = jnp.where(fits, f_h, jnp.nan)
         lag = jnp.where(fits, lag, jnp.nan)
+        # ... and is counted, also under jit/vmap: the reversals beyond the bound.
+        dropped = jnp.where(fits, 0, count - limit).astype(rec.overflow.dtype)
         return SimResult(
             force=f_h + lag + viscous,
             parts={"hysteresis": f_h, "lag": lag, "viscous": viscous, "depth": depth},
-            overflow=rec.overflow,
+            overflow=rec.overflow + dropped,
         )
 
     # The stages of `_simulate`, also timed one by one by benchmarks/profile_two_state.py.

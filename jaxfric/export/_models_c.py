@@ -22,6 +22,13 @@ static double jf_smag(double v)
 
 /* s(v) = sgn(v)*|s(v)| (N), 0 at v = 0 (Stribeck.__call__). */
 static double jf_s(double v) { return jf_sign(v) * jf_smag(v); }
+
+/* v, or the step's dx/dt where sign(v) disagrees with the step (motion.consistent_velocity). */
+static double jf_consistent(double v, double dx, double dt)
+{
+    if (!(v * dx < 0.0)) return v;
+    return dt > 0.0 ? dx / dt : 0.0;
+}
 """
 
 
@@ -91,6 +98,7 @@ static void jf_close(jaxfric_state *s, double x, double S)
 /* TwoState.step: F = F_h + F_l + sigma2*v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
+    v = jf_consistent(v, x - s->x_prev, dt);
     double d = jf_sign(v), last_d, S, den, xi, p, kappa, gamma, f_h, a, start;
     int moving = d != 0.0, top;
     int reversal = moving && s->last_d != 0.0 && d != s->last_d;
@@ -158,6 +166,7 @@ _GMS_HELPERS = """\
 /* GMS.step (GMS._update for every element): F = sum F_i + sigma2*v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
+    v = jf_consistent(v, x - s->x_prev, dt);
     double d = jf_sign(v), last_d, S, decay, dx = x - s->x_prev, sum = 0.0;
     int moving = d != 0.0, same, i;
     same = moving && d == s->last_d;
