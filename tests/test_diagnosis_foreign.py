@@ -23,7 +23,13 @@ from jaxfric.synthetic import GEAR, measurement
 pytestmark = pytest.mark.slow
 
 #: Hidden effect -> what the diagnosis does instead (from the bench's last run).
-KNOWN_FAILURES: dict[str, str] = {}
+KNOWN_FAILURES: dict[str, str] = {
+    "quadratic_drag": "an offset is named: the base model's sigma2 and Stribeck curve absorb "
+                      "the drag (excess over the clean file about 0.09 N)",
+    "drift": "nothing is added: the drift's held-out gain is not consistent (t about 1.4, "
+             "few batches under the model mismatch's autocorrelation)",
+    "friction_lag": "nothing is added: its score stays below min_score (about 0.04)",
+}
 
 
 @functools.cache
