@@ -168,6 +168,9 @@ def _simulate_one(t, x, v, use_v, p, size, out):
         dt = t[i] - t[i - 1] if i > 0 else 0.0
         if use_v:
             vn = v[i]
+            dxn = xn - x[i - 1] if i > 0 else 0.0
+            if vn * dxn < 0.0:  # a velocity that disagrees with the step: the step's
+                vn = dxn / dt if dt > 0.0 else 0.0  # (jaxfric.motion.consistent_velocity)
         elif i > 0 and dt > 0.0:
             vn = (xn - x[i - 1]) / dt  # backward difference: sign(v) == sign(dx)
         else:
