@@ -207,6 +207,17 @@ def test_generated_code_is_plain_c99(tmp_path):
     assert run.returncode == 0, run.stderr
 
 
+@needs_cc
+@pytest.mark.parametrize("name", list(MODELS))
+def test_every_model_compiles_warning_free(tmp_path, name):
+    """No unused helper or variable for any model kind: -Wall -Wextra -Werror."""
+    _, source = to_c(MODELS[name](), tmp_path)
+    run = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-c",
+                          str(source), "-o", str(tmp_path / "m.o")], capture_output=True,
+                         text=True)
+    assert run.returncode == 0, run.stderr
+
+
 def test_export_from_a_fit_json_is_the_model_export(tmp_path):
     model = paper.lugre() + fx.Offset(offset=0.25)
     result = tmp_path / "fit.json"

@@ -24,7 +24,7 @@ static double jf_smag(double v)
 static double jf_s(double v) { return jf_sign(v) * jf_smag(v); }
 
 /* v, or the step's dx/dt where sign(v) disagrees with the step (motion.consistent_velocity). */
-static double jf_consistent(double v, double dx, double dt)
+static inline double jf_consistent(double v, double dx, double dt)
 {
     if (!(v * dx < 0.0)) return v;
     return dt > 0.0 ? dx / dt : 0.0;
