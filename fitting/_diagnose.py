@@ -305,6 +305,8 @@ def _closest_call(ctx: _Context, held):
     the two refits differ (`fitting._evidence`, ``t`` at least `min_t`); otherwise the
     data cannot tell them apart, and the more consistent screen evidence (larger ``t``)
     decides."""
+    if len(held) == 1:
+        return held[0][0], "held up where it did not"
     ranked = sorted(held, key=lambda h: h[1][0].rmse_holdout)
     (best, (step, resid)), (_, (other, other_resid)) = ranked[0], ranked[1]
     ev = evidence(other_resid, resid, ctx.test, ctx.v_arr)
@@ -322,7 +324,7 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     """Add the first significant candidate whose refit holds up: ``(accepted, step,
     residual)``, or ``(None, None, None)``. Significant candidates whose scores are within
     10 % of the best (an offset and an asymmetry during sliding explain almost the same
-    share) are all refitted, and the held-out error of the refits decides."""
+    share) are all refitted, and `_closest_call` picks one of those that hold up."""
     tries = [c for c in ranking if c.significant]
     close = [c for c in tries if c.score >= 0.9 * tries[0].score][:3] if tries else []
     if ranking and not ranking[0].significant and ranking[0].score >= 4 * ctx.min_score:
