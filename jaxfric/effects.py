@@ -190,6 +190,13 @@ class Cogging(AbstractEffect):
         return f"cogging {amp:.4g} N amplitude, period {float(self.period) * 1e3:.4g} mm"
 
 
+def _travel(x: ArrayLike) -> dict[str, float]:
+    """``x_mid`` and ``x_half`` (m) of the travel `x`, for the position effects' ``u``."""
+    x = jnp.asarray(x)
+    lo, hi = float(jnp.min(x)), float(jnp.max(x))
+    return {"x_mid": 0.5 * (lo + hi), "x_half": max(0.5 * (hi - lo), 1e-12)}
+
+
 class PositionDependence(AbstractEffect):
     """``F_base * (pos_1 u + pos_2 u^2)``, ``u = (x - x_mid) / x_half`` in [-1, 1] over the
     travel (`x_mid`, `x_half` in m, fixed at construction: `for_travel`)."""
@@ -202,9 +209,7 @@ class PositionDependence(AbstractEffect):
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionDependence":
-        x = jnp.asarray(x)
-        lo, hi = float(jnp.min(x)), float(jnp.max(x))
-        return cls(x_mid=0.5 * (lo + hi), x_half=max(0.5 * (hi - lo), 1e-12), **params)
+        return cls(**_travel(x), **params)
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
@@ -230,9 +235,7 @@ class PositionLoad(AbstractEffect):
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionLoad":
-        x = jnp.asarray(x)
-        lo, hi = float(jnp.min(x)), float(jnp.max(x))
-        return cls(x_mid=0.5 * (lo + hi), x_half=max(0.5 * (hi - lo), 1e-12), **params)
+        return cls(**_travel(x), **params)
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
