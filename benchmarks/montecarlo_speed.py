@@ -3,15 +3,17 @@
 Issue 19 item 3 asks for jaxfric >= 2x a Numba ``prange`` loop of the same algorithm
 (`benchmarks/numba_two_state.py`) in three uses, all timed here side by side in one run:
 
-- Monte-Carlo over parameters: ``jax.vmap`` of `jaxfric.simulate` over B parameter sets
-  (every inexact leaf of the paper model times ``1 + 0.05 * N(0, 1)``) on one trajectory,
-  against `simulate_numba_params` (``prange`` over the sets). Under ``vmap`` the motion
+- Monte-Carlo over parameters: `jaxfric.simulate_many` of B parameter sets (every
+  inexact leaf of the paper model times ``1 + 0.05 * N(0, 1)``) on one trajectory, and
+  the plain ``jax.vmap`` of `jaxfric.simulate` over them, against
+  `simulate_numba_params` (``prange`` over the sets). Under ``vmap`` the motion
   (velocity, directions, reversals, reversal list) does not depend on the batched
   parameters, so JAX computes it once; the event pass, the Stribeck values, the shape
   and the lag depend on them (the loop-closure test ``(x - x_k)/(S - s_k) >= theta_k``
   involves ``S = s(v)``, ``Fs`` and ``l1``), so they run per set.
 - A batch of B trajectories (random phases of the mixed motion) with one model,
-  ``jax.vmap(jaxfric.simulate)``, against `simulate_numba_batch`.
+  `jaxfric.simulate_many` and ``jax.vmap(jaxfric.simulate)``, against
+  `simulate_numba_batch`.
 - One trajectory of n samples, `jaxfric.simulate` against `simulate_numba`.
 
 Also timed: the float64 elementwise operations the simulation is made of (``pow`` against
@@ -79,9 +81,15 @@ def _spread(model, B: int, rng):
     return jax.tree.unflatten(tree, batched), static
 
 
-def _row(what, size, t_jax, t_nb, diff):
-    return {"case": what, "size": size, "jaxfric_s": t_jax, "numba_s": t_nb,
-            "ratio": t_nb / t_jax, "max_abs_diff_N": diff}
+def _row(what, size, times, diff):
+    """`times`: medians of ``many`` (`jaxfric.simulate_many`, or `simulate` for one
+    trajectory), ``vmap`` (``jax.vmap`` of `simulate`; absent for one trajectory) and
+    ``numba``."""
+    return {"case": what, "size": size, "jaxfric_s": times["many"],
+            "vmap_s": times.get("vmap"), "numba_s": times["numba"],
+            "ratio": times["numba"] / times["many"],
+            "ratio_vmap": times["numba"] / times["vmap"] if "vmap" in times else None,
+            "max_abs_diff_N": diff}
 
 
 def bench_montecarlo(B, n, repeats) -> dict:
@@ -92,13 +100,17 @@ def bench_montecarlo(B, n, repeats) -> dict:
     tj, xj = jnp.asarray(t), jnp.asarray(x)
     run = jax.jit(jax.vmap(lambda p: jaxfric.simulate(eqx.combine(p, static), tj, xj,
                                                       max_reversals=bound)))
+    models = eqx.combine(P, static)
     sets = [nbts.params_from_model(eqx.combine(jax.tree.map(lambda a, j=j: a[j], P), static))
             for j in range(B)]
-    times = _median_times({"jax": lambda: run(P),
+    times = _median_times({"many": lambda: jaxfric.simulate_many(models, t, x),
+                           "vmap": lambda: run(P),
                            "numba": lambda: nbts.simulate_numba_params(sets, t, x)}, repeats)
-    diff = float(np.max(np.abs(np.asarray(run(P)) - nbts.simulate_numba_params(sets, t, x))))
+    F = np.asarray(jaxfric.simulate_many(models, t, x))
+    diff = float(np.max(np.abs(F - nbts.simulate_numba_params(sets, t, x))))
+    diff = max(diff, float(np.max(np.abs(F - np.asarray(run(P))))))
     return _row(f"Monte-Carlo: {B} parameter sets (5 % spread), one trajectory",
-                {"B": B, "n": n}, times["jax"], times["numba"], diff)
+                {"B": B, "n": n}, times, diff)
 
 
 def bench_batch(B, n, repeats) -> dict:
@@ -109,23 +121,24 @@ def bench_batch(B, n, repeats) -> dict:
     Tj, Xj = jnp.asarray(T), jnp.asarray(X)
     run = jax.jit(jax.vmap(lambda t, x: jaxfric.simulate(model, t, x, max_reversals=bound)))
     params = nbts.params_from_model(model)
-    times = _median_times({"jax": lambda: run(Tj, Xj),
+    times = _median_times({"many": lambda: jaxfric.simulate_many(model, T, X, model_axis=None),
+                           "vmap": lambda: run(Tj, Xj),
                            "numba": lambda: nbts.simulate_numba_batch(params, T, X)}, repeats)
-    diff = float(np.max(np.abs(np.asarray(run(Tj, Xj))
-                               - nbts.simulate_numba_batch(params, T, X))))
-    return _row(f"batch: {B} trajectories, one model", {"B": B, "n": n},
-                times["jax"], times["numba"], diff)
+    F = np.asarray(jaxfric.simulate_many(model, T, X, model_axis=None))
+    diff = float(np.max(np.abs(F - nbts.simulate_numba_batch(params, T, X))))
+    diff = max(diff, float(np.max(np.abs(F - np.asarray(run(Tj, Xj))))))
+    return _row(f"batch: {B} trajectories, one model", {"B": B, "n": n}, times, diff)
 
 
 def bench_single(n, repeats) -> dict:
     model = paper.two_state()
     t, x = mixed_path(n)
     params = nbts.params_from_model(model)
-    times = _median_times({"jax": lambda: jaxfric.simulate(model, t, x),
+    times = _median_times({"many": lambda: jaxfric.simulate(model, t, x),
                            "numba": lambda: nbts.simulate_numba(params, t, x)}, repeats)
     diff = float(np.max(np.abs(np.asarray(jaxfric.simulate(model, t, x))
                                - nbts.simulate_numba(params, t, x))))
-    return _row("one trajectory", {"B": 1, "n": n}, times["jax"], times["numba"], diff)
+    return _row("one trajectory (simulate)", {"B": 1, "n": n}, times, diff)
 
 
 def bench_ops(B, n, repeats) -> list[dict]:
@@ -173,12 +186,14 @@ def main(argv=None) -> int:
     ops = bench_ops(B, n, repeats)
     print(f"two-state simulate against Numba prange ({numba.get_num_threads()} threads), "
           f"medians of {repeats} rounds; ratio = Numba time / jaxfric time (target >= 2)")
-    print(f"{'case':62s} {'B':>5s} {'n':>8s} {'jaxfric s':>10s} {'Numba s':>9s} "
-          f"{'ratio':>6s} {'max |dF| N':>10s}")
+    print(f"{'case':62s} {'B':>5s} {'n':>8s} {'jaxfric s':>10s} {'vmap s':>8s} "
+          f"{'Numba s':>9s} {'ratio':>6s} {'(vmap)':>6s} {'max |dF| N':>10s}")
     for r in rows:
+        vm = "-" if r["vmap_s"] is None else f"{r['vmap_s']:.4f}"
+        rv = "-" if r["ratio_vmap"] is None else f"{r['ratio_vmap']:.2f}"
         print(f"{r['case']:62s} {r['size']['B']:5d} {r['size']['n']:8.0e} "
-              f"{r['jaxfric_s']:10.4f} {r['numba_s']:9.4f} {r['ratio']:6.2f} "
-              f"{r['max_abs_diff_N']:10.2g}")
+              f"{r['jaxfric_s']:10.4f} {vm:>8s} {r['numba_s']:9.4f} {r['ratio']:6.2f} "
+              f"{rv:>6s} {r['max_abs_diff_N']:10.2g}")
     print(f"\nfloat64 elementwise operations on {B} x {n} elements (ns per element):")
     for o in ops:
         extra = (f"  (max relative difference to the power: {o['max_rel_diff_to_power']:.2g})"

@@ -209,12 +209,24 @@ def _run_many(models, t, x, v, max_reversals, model_axis, chunk) -> SimResult:
     return jax.lax.map(one, mapped, batch_size=max(1, min(chunk, B)))
 
 
-def _many_bound(model, t, x, v, max_reversals):
-    """`_max_reversals` for a batch: the largest over the rows."""
-    if t.ndim == 1 or max_reversals is not None or isinstance(t, jax.core.Tracer):
-        return _max_reversals(model, t, x, v, max_reversals)
-    rows = [(t[i], x[i], None if v is None else v[i]) for i in range(t.shape[0])]
-    return max(_max_reversals(model, *row, None) or 0 for row in rows) or None
+def _checked_motions(t, x, v):
+    """`_checked_motion` for motions ``(B, n)``, one per row, checked all at once."""
+    arrays = [a if jnp.issubdtype(a.dtype, jnp.floating) else a.astype(jnp.asarray(0.0).dtype)
+              for a in (t, x, v) if a is not None]
+    for name, a in zip(("t", "x", "v"), arrays):
+        if not isinstance(a, jax.core.Tracer):
+            bad = ~np.isfinite(np.asarray(a))
+            if bad.any():
+                row, col = np.unravel_index(int(np.argmax(bad)), bad.shape)
+                raise ValueError(f"{name} has a non-finite value at [{row}, {col}]")
+    arrays = _common_float(*arrays)
+    if not isinstance(arrays[0], jax.core.Tracer):
+        bad = np.diff(np.asarray(arrays[0]), axis=1) <= 0
+        if bad.any():
+            row, col = np.unravel_index(int(np.argmax(bad)), bad.shape)
+            raise ValueError(f"t must be strictly increasing; t[{row}, {col + 1}] <= "
+                             f"t[{row}, {col}]")
+    return (*arrays, None) if v is None else tuple(arrays)
 
 
 def simulate_many(
@@ -262,16 +274,11 @@ def simulate_many(
         if sizes != {t.shape[0]}:
             raise ValueError(f"the model's batch axis ({sizes}) and the motions' "
                              f"({t.shape[0]}) differ")
-    if t.ndim == 1:
-        t, x, v = _checked_motion(t, x, v)
-    else:
-        checked = [_checked_motion(t[i], x[i], None if v is None else v[i])
-                   for i in range(t.shape[0])] if not isinstance(t, jax.core.Tracer) else []
-        if checked:
-            t, x = jnp.stack([c[0] for c in checked]), jnp.stack([c[1] for c in checked])
-            v = None if v is None else jnp.stack([c[2] for c in checked])
+    if t.shape[-1] < 1:
+        raise ValueError("need at least one sample")
+    t, x, v = _checked_motion(t, x, v) if t.ndim == 1 else _checked_motions(t, x, v)
     models = jax.tree.map(_strong, models)
-    max_reversals = _many_bound(models, t, x, v, max_reversals)
+    max_reversals = _max_reversals(models, t, x, v, max_reversals)
     result = _run_many(models, t, x, v, max_reversals, model_axis, operator.index(chunk))
     if not isinstance(result.overflow, jax.core.Tracer) and int(jnp.sum(result.overflow)) > 0:
         warnings.warn(

@@ -96,3 +96,13 @@ def test_bad_inputs_raise():
         jaxfric.simulate_many(eqx.combine(batched, static), np.stack([t, t]), np.stack([x, x]))
     with pytest.raises(ValueError, match="strictly increasing"):
         jaxfric.simulate_many(model, np.stack([t, t[::-1]]), np.stack([x, x]), model_axis=None)
+
+
+def test_reversal_bound_of_rows_is_the_largest():
+    t, x = nested_path()
+    small = 1e-3 * np.sin(2 * np.pi * t / t[-1])  # one reversal
+    rng = np.random.default_rng(0)
+    noisy = x + 1e-7 * rng.standard_normal(t.size)  # hundreds of reversals
+    bounds = [jaxfric.reversal_bound(t, a) for a in (small, noisy)]
+    assert bounds[0] == 64 and bounds[1] > 64
+    assert jaxfric.reversal_bound(np.stack([t, t]), np.stack([small, noisy])) == bounds[1]
