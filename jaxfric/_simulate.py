@@ -202,9 +202,9 @@ def _run_many(models, t, x, v, max_reversals, model_axis, chunk) -> SimResult:
 
     def one(item):
         m = eqx.combine(params if item["p"] is None else item["p"], static)
-        return m._simulate(make_motion(
-            t if item["t"] is None else item["t"], x if item["x"] is None else item["x"],
-            v if v is None or item["v"] is None else item["v"], max_reversals))
+        return _run(m, t if item["t"] is None else item["t"],
+                    x if item["x"] is None else item["x"],
+                    v if v is None or item["v"] is None else item["v"], max_reversals)
 
     return jax.lax.map(one, mapped, batch_size=max(1, min(chunk, B)))
 
