@@ -234,7 +234,7 @@ NOTES = "docs/benchmark_notes.md"
 
 
 def section_montecarlo(mc: dict, json_name: str) -> str:
-    """The section of `benchmarks/montecarlo_speed.py` (issue 19 item 3), from its JSON."""
+    """The section of `benchmarks/montecarlo_speed.py`, from its JSON."""
     rows = [[r["case"], r["size"]["B"], _n(r["size"]["n"]), f(r["jaxfric_s"], ".4f"),
              f(r.get("vmap_s"), ".4f"), f(r["numba_s"], ".4f"), f(r["ratio"], ".2f"),
              f(r.get("ratio_vmap"), ".2f"), "PASS" if r["ratio"] >= 2 else "**MISS**",
@@ -246,7 +246,7 @@ def section_montecarlo(mc: dict, json_name: str) -> str:
     quick = ("> **A `--quick` smoke run**: the sizes are too small to mean anything.\n\n"
              if mc.get("quick") else "")
     return (
-        quick + "Target (issue 19 item 3): jaxfric >= 2x a Numba `prange` loop of the same "
+        quick + "Target: jaxfric >= 2x a Numba `prange` loop of the same "
         "algorithm. jaxfric = `jaxfric.simulate_many` for the batches (`simulate` for one "
         "trajectory), vmap = `jax.vmap` of `jaxfric.simulate`; ratio = Numba time / "
         "jaxfric time; max abs(dF) = the largest force difference to Numba and to the vmap. "
