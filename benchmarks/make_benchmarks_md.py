@@ -1,7 +1,9 @@
 """Write BENCHMARKS.md and the documentation's benchmark page from the JSON of
 ``benchmarks/throughput.py``.
 
-Run ``python benchmarks/make_benchmarks_md.py RESULTS.json``: it writes ``BENCHMARKS.md``
+Run ``python benchmarks/make_benchmarks_md.py RESULTS.json [--montecarlo MC.json]``
+(``MC.json`` from ``benchmarks/montecarlo_speed.py``, rendered as a section of its own):
+it writes ``BENCHMARKS.md``
 at the repository root and ``docs/benchmarks.md`` (the same text, with links relative to
 ``docs/``). Everything in the pages comes from the JSON (no number is typed in here): the
 machine, the command that reproduces the run, every table and the goals with PASS/MISS.
@@ -231,7 +233,38 @@ def section_ratios(d) -> str:
 NOTES = "docs/benchmark_notes.md"
 
 
-def render(d: dict, json_name: str, notes_link: str = NOTES) -> str:
+def section_montecarlo(mc: dict, json_name: str) -> str:
+    """The section of `benchmarks/montecarlo_speed.py`, from its JSON."""
+    rows = [[r["case"], r["size"]["B"], _n(r["size"]["n"]), f(r["jaxfric_s"], ".4f"),
+             f(r.get("vmap_s"), ".4f"), f(r["numba_s"], ".4f"), f(r["ratio"], ".2f"),
+             f(r.get("ratio_vmap"), ".2f"), "PASS" if r["ratio"] >= 2 else "**MISS**",
+             f(r["max_abs_diff_N"], ".2g")] for r in mc["rows"]]
+    ops = [[o["op"], f(o["ns_per_element"], ".2f"),
+            f(o["max_rel_diff_to_power"], ".2g")] for o in mc["ops"]]
+    m = mc["machine"]
+    load = " / ".join(f"{v:.2f}" for v in m.get("load_average") or [])
+    quick = ("> **A `--quick` smoke run**: the sizes are too small to mean anything.\n\n"
+             if mc.get("quick") else "")
+    return (
+        quick + "Target: jaxfric >= 2x a Numba `prange` loop of the same "
+        "algorithm. jaxfric = `jaxfric.simulate_many` for the batches (`simulate` for one "
+        "trajectory), vmap = `jax.vmap` of `jaxfric.simulate`; ratio = Numba time / "
+        "jaxfric time; max abs(dF) = the largest force difference to Numba and to the vmap. "
+        "Medians of "
+        f"{mc['repeats']} interleaved rounds of one run ({m.get('date_utc')} UTC, Numba on "
+        f"{m.get('numba_threads')} threads, load average {load} at the end: the machine "
+        "is shared, so only the ratios of one run mean much). Generated from "
+        f"`{json_name}`; reproduce with `{mc['command']}`. Why the target is missed, "
+        "measured stage by stage: the benchmark notes.\n\n"
+        + md_table(["case", "B", "n", "jaxfric s", "vmap s", "Numba s", "ratio",
+                    "ratio (vmap)", ">= 2x", "max abs(dF) N"], rows, "lrrrrrrrlr")
+        + "\n\nfloat64 elementwise operations (XLA on the CPU, ns per element of a "
+        "B x n array):\n\n" + md_table(["operation", "ns/element",
+                                          "max relative difference to x ** p"], ops))
+
+
+def render(d: dict, json_name: str, notes_link: str = NOTES, mc: dict | None = None,
+           mc_name: str = "") -> str:
     quick = d.get("quick")
     parts = ["# Benchmarks", ""]
     parts.append(
@@ -247,7 +280,9 @@ def render(d: dict, json_name: str, notes_link: str = NOTES) -> str:
                       "that the script works, not how fast jaxfric is."]
     parts += ["", "## Reproduce", "", "```bash",
               d.get("command", "python benchmarks/throughput.py --json OUT.json"),
-              f"python benchmarks/make_benchmarks_md.py {json_name}", "```", "",
+              *([mc["command"]] if mc is not None else []),
+              f"python benchmarks/make_benchmarks_md.py {json_name}"
+              + (f" --montecarlo {mc_name}" if mc is not None else ""), "```", "",
               f"Repeats: {d['config']['repeats']}. Sizes: {json.dumps(d['config'])}.", "",
               "## Machine", "", section_machine(d), "",
               "## Goals", "", section_goals(d), "",
@@ -267,6 +302,9 @@ def render(d: dict, json_name: str, notes_link: str = NOTES) -> str:
               "## Compile times", "", section_compile(d), "",
               "## float32 against float64 (presliding)", "", section_float32(d), "",
               "## Ratios", "", section_ratios(d), ""]
+    if mc is not None:
+        parts += ["## Monte-Carlo, batch and single trajectory against Numba prange", "",
+                  section_montecarlo(mc, mc_name), ""]
     return "\n".join(parts)
 
 
@@ -278,12 +316,16 @@ def main(argv=None) -> int:
                     help="Markdown file to write (default: BENCHMARKS.md at the repo root)")
     ap.add_argument("--docs", default=str(root / "docs" / "benchmarks.md"),
                     help="the documentation page (default: docs/benchmarks.md; '' for none)")
+    ap.add_argument("--montecarlo", default="",
+                    help="JSON of benchmarks/montecarlo_speed.py to add as a section")
     args = ap.parse_args(argv)
     d = json.loads(Path(args.json).read_text())
-    Path(args.out).write_text(render(d, args.json))
+    mc = json.loads(Path(args.montecarlo).read_text()) if args.montecarlo else None
+    Path(args.out).write_text(render(d, args.json, mc=mc, mc_name=args.montecarlo))
     print(f"wrote {args.out}")
     if args.docs:
-        Path(args.docs).write_text(render(d, args.json, notes_link=Path(NOTES).name))
+        Path(args.docs).write_text(render(d, args.json, notes_link=Path(NOTES).name, mc=mc,
+                                          mc_name=args.montecarlo))
         print(f"wrote {args.docs}")
     return 0
 

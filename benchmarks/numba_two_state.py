@@ -40,6 +40,7 @@ exponentials are ~50x larger than their difference), ``X = 2*Fs*l1``,
 and for ``xi >= l1``), ``gamma = Pi - xi*kappa``.
 
 Public functions: `simulate_numba`, `simulate_numba_batch` (``prange`` over trajectories),
+`simulate_numba_params` (``prange`` over parameter sets on one trajectory),
 `params_from_model`, `paper_params`, `warm_up` (compiles the kernels, returns seconds), and
 `shape_constants` (to call the shape kernel `_pi_gamma` from Python, for the tests).
 """
@@ -282,6 +283,12 @@ def _simulate_batch(T, X, V, use_v, p, size, out, overflow):
         overflow[j] = _simulate_one(T[j], X[j], V[j], use_v, p, size, out[j])
 
 
+@numba.njit(cache=False, parallel=True, error_model="numpy")
+def _simulate_params(t, x, v, use_v, P, size, out, overflow):
+    for j in numba.prange(P.shape[0]):
+        overflow[j] = _simulate_one(t, x, v, use_v, P[j], size, out[j])
+
+
 def _check_size(stack_size: int) -> int:
     size = int(stack_size)
     if size < 3:
@@ -332,6 +339,24 @@ def simulate_numba_batch(params: dict, T, X, V=None, stack_size: int = 16, *,
     return (out, overflow) if full_output else out
 
 
+def simulate_numba_params(params: list[dict], t, x, v=None, stack_size: int = 16, *,
+                          full_output=False):
+    """`simulate_numba` for B parameter sets on one trajectory, in parallel
+    (``numba.prange`` over the sets): a Monte-Carlo over parameters. Returns forces
+    ``(B, n)`` in N (and the per-set overflow counts with `full_output`)."""
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if t.ndim != 1 or x.shape != t.shape or t.size == 0:
+        raise ValueError("t and x must be 1-D arrays of the same non-zero length")
+    use_v = v is not None
+    v = np.ascontiguousarray(v, dtype=np.float64) if use_v else x
+    P = np.stack([_pack(p) for p in params])
+    out = np.empty((P.shape[0], t.size))
+    overflow = np.zeros(P.shape[0], dtype=np.int64)
+    _simulate_params(t, x, v, use_v, P, _check_size(stack_size), out, overflow)
+    return (out, overflow) if full_output else out
+
+
 def warm_up() -> float:
     """Compile both kernels (with and without a given v) on a tiny input; returns seconds."""
     import time
@@ -344,6 +369,7 @@ def warm_up() -> float:
     simulate_numba(p, t, x, np.gradient(x, t))
     simulate_numba_batch(p, np.stack([t, t]), np.stack([x, x]))
     simulate_numba_batch(p, np.stack([t, t]), np.stack([x, x]), np.stack([x, x]))
+    simulate_numba_params([p, p], t, x)
     return time.perf_counter() - t0
 
 
@@ -409,6 +435,10 @@ def check() -> list[str]:
     F = simulate_numba_batch(p, T, X)
     if not all(np.array_equal(F[j], simulate_numba(p, T[j], X[j])) for j in range(3)):
         failures.append("the prange batch differs from one trajectory at a time")
+    sets = [p, {**p, "Fs": 1.05 * p["Fs"], "l1": 0.95 * p["l1"]}, {**p, "C": 2.0 * p["C"]}]
+    F = simulate_numba_params(sets, t, x)
+    if not all(np.array_equal(F[j], simulate_numba(q, t, x)) for j, q in enumerate(sets)):
+        failures.append("the prange over parameter sets differs from one set at a time")
     return failures
 
 

@@ -16,11 +16,13 @@ when they end a function than inside the whole simulation). Also timed: the
 whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
 iteration needs).
 
-Run ``python benchmarks/profile_two_state.py [--n N] [--batch B] [--repeats R] [--json OUT]``.
+Run ``python benchmarks/profile_two_state.py [--n N] [--batch B | --params B] [--repeats R]
+[--json OUT]``.
 All cases are called once in turn per round (interleaved); medians over the rounds, in ns
 per sample, on the mixed motion of `benchmarks/throughput.py` (`benchmarks/motions.py`).
 With ``--batch B`` the stages run under ``jax.vmap`` over B such motions with random
-phases (ns per trajectory-step; no ``jacfwd`` row).
+phases (ns per trajectory-step; no ``jacfwd`` row); with ``--params B`` under ``jax.vmap``
+over B parameter sets (5 % spread) on one motion (ns per set-step; no ``jacfwd`` row).
 """
 
 from __future__ import annotations
@@ -46,19 +48,27 @@ except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     from motions import mixed_path
 
 
-def _stages(model, T, X, bound):
+def _over(stages, p, T, X, param_sets):
+    """`stages` on one trajectory, vmapped over trajectories, or over parameter sets."""
+    if param_sets:
+        return jax.vmap(lambda q: stages(q, T, X))(p)
+    if T.ndim == 1:
+        return stages(p, T, X)
+    return jax.vmap(lambda t, x: stages(p, t, x))(T, X)
+
+
+def _stages(model, T, X, bound, param_sets=False):
     """The staged functions of `params`: on one trajectory if `T`, `X` are 1-D, else
-    vmapped over their rows (as ``jax.vmap(jaxfric.simulate)`` runs)."""
+    vmapped over their rows (as ``jax.vmap(jaxfric.simulate)`` runs). With `param_sets`,
+    `params` has a leading batch axis and the stages are vmapped over it on the one
+    trajectory ``(T, X)`` (a Monte-Carlo over parameters)."""
     params, static = eqx.partition(model, eqx.is_inexact_array)
 
     def upto(stage):
         """The simulation up to and including `stage` (as `TwoState._simulate` runs it)."""
 
         def run(p):
-            if T.ndim == 1:
-                out = stages(p, T, X)
-            else:
-                out = jax.vmap(lambda t, x: stages(p, t, x))(T, X)
+            out = _over(stages, p, T, X, param_sets)
             if stage == 6:
                 return out
             # One number from the stage's outputs: computing them is timed, writing them
@@ -96,7 +106,7 @@ def _stages(model, T, X, bound):
         "6. + friction lag (= simulate)",
     ]
     cases = {name: jax.jit(upto(i + 1)) for i, name in enumerate(names)}
-    if T.ndim == 1:
+    if T.ndim == 1 and not param_sets:
         cases["jacfwd of simulate (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
     return params, cases
 
@@ -108,6 +118,10 @@ def main(argv=None):
                     help="profile a vmapped batch of this many trajectories of n samples "
                          "(random phases, as in the throughput batch section); ns per "
                          "trajectory-step")
+    ap.add_argument("--params", type=int, default=0,
+                    help="profile a vmap over this many parameter sets (every parameter "
+                         "times 1 + 0.05 N(0, 1)) on one trajectory of n samples; ns per "
+                         "set-step")
     ap.add_argument("--repeats", type=int, default=9)
     ap.add_argument("--json", help="write the results to this file")
     args = ap.parse_args(argv)
@@ -121,8 +135,15 @@ def main(argv=None):
     else:
         T, X = mixed_path(args.n)
         bound = reversal_bound(T, X)
-    params, cases = _stages(paper.two_state(), jnp.asarray(T), jnp.asarray(X), bound)
-    per = args.n * max(args.batch, 1)
+    params, cases = _stages(paper.two_state(), jnp.asarray(T), jnp.asarray(X), bound,
+                            param_sets=bool(args.params))
+    if args.params:
+        rng = np.random.default_rng(0)
+        params = jax.tree.map(
+            lambda a: jnp.asarray(a * (1 + 0.05 * rng.standard_normal((args.params,
+                                                                       *jnp.shape(a))))),
+            params)
+    per = args.n * max(args.batch, args.params, 1)
     for f in cases.values():
         jax.block_until_ready(f(params))
     times = {k: [] for k in cases}
@@ -132,8 +153,9 @@ def main(argv=None):
             jax.block_until_ready(f(params))
             times[k].append(time.perf_counter() - t0)
     rows, prev = [], 0.0
-    what = f"B = {args.batch} trajectories (vmap) of " if args.batch else ""
-    unit = "ns/traj-step" if args.batch else "ns/sample"
+    what = (f"B = {args.batch} trajectories (vmap) of " if args.batch else
+            f"{args.params} parameter sets (vmap) on one trajectory of " if args.params else "")
+    unit = "ns/traj-step" if args.batch else "ns/set-step" if args.params else "ns/sample"
     print(f"two-state simulation, {what}n = {args.n:.0e}, medians of {args.repeats} rounds")
     print(f"{'stage (cumulative)':44s} {unit:>12s} {'stage ns':>9s}")
     for k, ts in times.items():
@@ -143,7 +165,8 @@ def main(argv=None):
         rows.append({"stage": k, "ns_per_sample": ns, "stage_ns_per_sample": stage})
         print(f"{k:44s} {ns:12.1f} {'' if stage is None else f'{stage:9.1f}'}")
     if args.json:
-        meta = {"n": args.n, "batch": args.batch, "repeats": args.repeats,
+        meta = {"n": args.n, "batch": args.batch, "params": args.params,
+                "repeats": args.repeats,
                 "jax": jax.__version__,
                 "devices": [str(d) for d in jax.devices()]}
         with open(args.json, "w") as fh:

@@ -33,7 +33,11 @@ from ._shapes import (
     PaperShape as PaperShape,
     PowerShape as PowerShape,
 )
-from ._simulate import simulate as simulate, StackOverflowWarning as StackOverflowWarning
+from ._simulate import (
+    simulate as simulate,
+    simulate_many as simulate_many,
+    StackOverflowWarning as StackOverflowWarning,
+)
 from ._stribeck import Stribeck as Stribeck
 from .motion import reversal_bound as reversal_bound
 

@@ -195,18 +195,22 @@ def travel_since_reversal(x, v=None) -> np.ndarray:
 def reversal_bound(t, x, v=None) -> int:
     """A static bound on the number of reversals of the motion ``(t, x[, v])`` (concrete
     arrays; the same rule as `Motion.reversal`): the count, rounded up to a power of two
-    (at least 64, at most ``n``) so that similar motions share one compilation."""
+    (at least 64, at most ``n``) so that similar motions share one compilation. For
+    motions ``(B, n)`` (one per row), the bound of the row with the most reversals."""
     t, x = np.asarray(t), np.asarray(x)
+    dt = np.diff(t, axis=-1, prepend=t[..., :1])
+    dx = np.diff(x, axis=-1, prepend=x[..., :1])
     if v is None:
-        dt = np.diff(t, prepend=t[:1])
-        dx = np.diff(x, prepend=x[:1])
         d = np.sign(np.where(dt > 0, dx, 0.0))
     else:
-        dx = np.diff(x, prepend=x[:1])
-        d = np.sign(np.asarray(consistent_velocity(v, dx, np.diff(t, prepend=t[:1]))))
-    moving = d[d != 0]
-    count = int(np.count_nonzero(moving[1:] != moving[:-1]))
-    return min(max(64, 1 << count.bit_length()), max(int(t.shape[0]), 1))
+        d = np.sign(np.asarray(consistent_velocity(np.asarray(v), dx, dt)))
+    # The direction of the last moving sample (0 before any), and its changes.
+    idx = np.arange(d.shape[-1])
+    last = np.maximum.accumulate(np.where(d != 0, idx, 0), axis=-1)
+    dl = np.take_along_axis(d, last, axis=-1)
+    count = int(np.max(np.count_nonzero((dl[..., 1:] != dl[..., :-1]) & (dl[..., :-1] != 0),
+                                        axis=-1), initial=0))
+    return min(max(64, 1 << count.bit_length()), max(int(t.shape[-1]), 1))
 
 
 def make_motion(t: Array, x: Array, v: Array | None = None,

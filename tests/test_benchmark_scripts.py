@@ -92,3 +92,32 @@ def test_c_step_runs_and_writes_json(tmp_path):
     assert all(r["model"] in printed for r in data["rows"])
     assert all(r["c_ns_per_step"] > 0 and r["c_max_error_rel_to_max_force"] < 1e-9
                for r in data["rows"])
+
+
+def test_profile_two_state_params_runs(tmp_path):
+    out = tmp_path / "profile_params.json"
+    printed = _run("profile_two_state.py", "--n", "600", "--params", "3", "--repeats", "1",
+                   "--json", out)
+    data = json.loads(out.read_text())
+    assert data["meta"]["params"] == 3 and "ns/set-step" in printed
+    assert len(data["rows"]) == 6  # the stages; no jacfwd row for parameter sets
+
+
+def test_montecarlo_speed_quick_runs_and_renders(tmp_path):
+    pytest.importorskip("numba")
+    out = tmp_path / "mc.json"
+    printed = _run("montecarlo_speed.py", "--quick", "--json", out)
+    data = json.loads(out.read_text())
+    assert data["quick"] is True
+    cases = [r["case"] for r in data["rows"]]
+    assert len(cases) == 3 and all(c in printed for c in cases)
+    # Same forces as the Numba baseline (its own check is < 1e-9 N), positive timings.
+    assert all(r["max_abs_diff_N"] < 1e-9 and r["jaxfric_s"] > 0 and r["numba_s"] > 0
+               for r in data["rows"])
+    assert {o["op"] for o in data["ops"]} >= {"x ** p (XLA power)", "exp(p * log(x))"}
+    md = tmp_path / "B.md"
+    _run("make_benchmarks_md.py", ROOT / "benchmarks" / "throughput.json", "--montecarlo", out,
+         "--out", md, "--docs", "")
+    text = md.read_text()
+    assert "## Monte-Carlo, batch and single trajectory against Numba prange" in text
+    assert "smoke run" in text and all(c in text for c in cases)
