@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 
@@ -92,3 +93,20 @@ def test_c_step_runs_and_writes_json(tmp_path):
     assert all(r["model"] in printed for r in data["rows"])
     assert all(r["c_ns_per_step"] > 0 and r["c_max_error_rel_to_max_force"] < 1e-9
                for r in data["rows"])
+
+
+def test_fit_speed_runs_and_writes_json(tmp_path):
+    out = tmp_path / "fit_speed.json"
+    printed = _run("fit_speed.py", "--quick", "--json", out)
+    data = json.loads(out.read_text())
+    (row,) = data["rows"]
+    assert row["n"] == 2000 and "x warm" in printed
+    # Same start for both: 11 free parameters, each moved by 15 %; c held.
+    assert len(data["start_factors"]) == 11 and "c" not in data["start_factors"]
+    assert set(data["start_factors"].values()) <= {0.85, 1.15}
+    for side in ("jaxfric", "scipy"):
+        assert row[side]["warm_s"] > 0 and row[side]["steps"] > 0
+        assert np.isfinite(row[side]["rmse"])
+    assert row["scipy"]["first_s"] >= row["scipy"]["warm_s"]  # + the Numba compilation
+    assert {g["goal"] for g in data["goals"]} == {"warm speed-up", "first-call speed-up",
+                                                  "RMSE vs scipy"}
