@@ -6,6 +6,7 @@ import dataclasses
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 import pytest
 
 import fitting
@@ -79,3 +80,17 @@ def test_weakly_determined_pairs_are_reported_with_their_correlation(tustin_data
     # Held parameters are never reported.
     held = dataclasses.replace(weak, free=tuple(n for n in res.free if n != res.fit_names[i]))
     assert all(res.fit_names[i] not in p[:2] for p in held.weakly_determined())
+
+
+def test_a_batch_fit_that_never_leaves_its_start_is_not_converged(tustin_data):
+    """A solver that gives up at once (huge tolerances) claims success after one step at
+    its start: off the optimum that is stuck, at the optimum it is converged."""
+    t, x, _, start = tustin_data
+    clean = np.broadcast_to(np.asarray(jaxfric.simulate(paper.tustin(), t, x)), (2, t.size))
+    lazy = optx.LevenbergMarquardt(rtol=1e3, atol=1e3)
+    off = _batch(tustin_data, clean, solver=lazy)
+    assert float(off.params["Fs"][0]) == float(start.stribeck.Fs)  # it did not move
+    assert off.status == ["nonlinear_divergence"] * 2
+    at = fitting.fit_batch(paper.tustin(), np.broadcast_to(t, clean.shape),
+                           np.broadcast_to(x, clean.shape), clean, solver=lazy)
+    assert at.status == ["successful"] * 2 and np.all(np.asarray(at.rmse) < 1e-9)
