@@ -229,6 +229,33 @@ def section_ratios(d) -> str:
             "(> 1: the second is faster).\n\n" + md_table(["pair", "size", "ratio"], rows))
 
 
+def section_fit_speed(fs: dict | None, json_name: str) -> str:
+    """Time to fit (``benchmarks/fit_speed.py``): jaxfric against scipy + Numba."""
+    if fs is None:
+        return "Not measured in this run (`python benchmarks/fit_speed.py`)."
+    rows = []
+    for r in fs["rows"]:
+        j, s = r["jaxfric"], r["scipy"]
+        rows.append([_n(r["n"]), j["steps"], j["status"], f(j["first_s"]), f(j["warm_s"]),
+                     f(j["rmse"], ".5f"), s["steps"], f(s["first_s"]), f(s["warm_s"]),
+                     f(s["rmse"], ".5f"), f(r["ratio_first"]), f(r["ratio_warm"]),
+                     f"{100 * r['rmse_rel']:+.2f} %"])
+    table = md_table(["n", "jaxfric steps", "status", "first s", "warm s", "RMSE N",
+                      "scipy Jacobians", "first s", "warm s", "RMSE N", "x first", "x warm",
+                      "RMSE jaxfric/scipy - 1"], rows)
+    goals = md_table(["n", "goal", "target", "measured", ""],
+                     [[_n(g["n"]), g["goal"], g["target"], f(g["measured"]),
+                       "PASS" if g["met"] else "MISS"] for g in fs["goals"]], align="lllrl")
+    return "\n".join([
+        "`fitting.fit` (defaults) against `scipy.optimize.least_squares` (trf, "
+        "`x_scale=\"jac\"`, 2-point differences) around the Numba loop, same data (the "
+        "mixed motion, paper model + 0.05 N noise) and start (11 parameters x1.15 or x0.85, "
+        "c held); scipy's first call adds the Numba compilation "
+        f"({f(fs['numba_compile_s'])} s). One run of `{fs.get('command')}` "
+        f"(`{json_name}`); the method is in the script's docstring.", "", table, "",
+        goals])
+
+
 #: The hand-written explanation of the numbers, relative to the repository root.
 NOTES = "docs/benchmark_notes.md"
 
@@ -264,7 +291,8 @@ def section_montecarlo(mc: dict, json_name: str) -> str:
 
 
 def render(d: dict, json_name: str, notes_link: str = NOTES, mc: dict | None = None,
-           mc_name: str = "") -> str:
+           mc_name: str = "", fit_speed: dict | None = None,
+           fit_speed_name: str = "benchmarks/fit_speed.json") -> str:
     quick = d.get("quick")
     parts = ["# Benchmarks", ""]
     parts.append(
@@ -299,6 +327,8 @@ def render(d: dict, json_name: str, notes_link: str = NOTES, mc: dict | None = N
               "## Gradients", "", section_grad(d), "",
               "## One Levenberg-Marquardt iteration", "", section_lm(d), "",
               "## Batch fits", "", section_fit_batch(d), "",
+              "## Time to fit against scipy + Numba", "",
+              section_fit_speed(fit_speed, fit_speed_name), "",
               "## Compile times", "", section_compile(d), "",
               "## float32 against float64 (presliding)", "", section_float32(d), "",
               "## Ratios", "", section_ratios(d), ""]
@@ -318,14 +348,19 @@ def main(argv=None) -> int:
                     help="the documentation page (default: docs/benchmarks.md; '' for none)")
     ap.add_argument("--montecarlo", default="",
                     help="JSON of benchmarks/montecarlo_speed.py to add as a section")
+    ap.add_argument("--fit-speed", default="benchmarks/fit_speed.json",
+                    help="output of benchmarks/fit_speed.py (skipped if missing)")
     args = ap.parse_args(argv)
     d = json.loads(Path(args.json).read_text())
     mc = json.loads(Path(args.montecarlo).read_text()) if args.montecarlo else None
-    Path(args.out).write_text(render(d, args.json, mc=mc, mc_name=args.montecarlo))
+    fs_path = Path(args.fit_speed)
+    fs = json.loads(fs_path.read_text()) if fs_path.is_file() else None
+    extra = {"mc": mc, "mc_name": args.montecarlo, "fit_speed": fs,
+             "fit_speed_name": args.fit_speed}
+    Path(args.out).write_text(render(d, args.json, **extra))
     print(f"wrote {args.out}")
     if args.docs:
-        Path(args.docs).write_text(render(d, args.json, notes_link=Path(NOTES).name, mc=mc,
-                                          mc_name=args.montecarlo))
+        Path(args.docs).write_text(render(d, args.json, notes_link=Path(NOTES).name, **extra))
         print(f"wrote {args.docs}")
     return 0
 

@@ -38,7 +38,7 @@ from jaxtyping import Array
 
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
-from ._solve import _Core, _evaluate_impl, _finish_impl
+from ._solve import _Core, _evaluate_impl, _finish_impl, STUCK_COSINE
 
 
 #: Most solver steps per compiled call (static: the loop bound of `_chunk`).
@@ -162,9 +162,6 @@ class _Progress:
     seconds: float
 
 
-#: A fit none of whose steps lowers the cost is at its optimum if the largest cosine between
-#: a Jacobian column and the residual is at most this; otherwise it is stuck.
-STUCK_COSINE = 1e-4
 
 
 def _stop_reason(out: _ChunkOut, budget: int, cost0: float, cost: float, y_prev,

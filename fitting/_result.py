@@ -23,6 +23,11 @@ _RESULT_NAMES = ("successful", "nonlinear_max_steps_reached", "nonlinear_diverge
                  "nonfinite", "max_steps_reached", "singular", "breakdown", "stagnation",
                  "conlim", "nonfinite_input")
 
+#: Correlation (in magnitude) above which two fitted parameters are reported as weakly
+#: determined (`FitResult.weakly_determined`).
+WEAK_CORRELATION = 0.99
+
+
 def status_name(result: optx.RESULTS) -> str | list[str]:
     """The name of an optimistix result code (e.g. ``"successful"``,
     ``"nonlinear_max_steps_reached"``); a list for a batch of codes."""
@@ -72,6 +77,12 @@ class FitResult(eqx.Module):
     - `stopped`: why the fit stopped, in words (which stopping rule of
       `fitting._chunked.Tolerances` fired, or the step limit); empty for `fit_batch`.
 
+    Weakly determined directions are reported, not iterated on: `weakly_determined` lists
+    the pairs of fitted parameters (of the solver's representation) whose correlation
+    exceeds `WEAK_CORRELATION` in magnitude, and `summary` prints them with the condition
+    number. The data fix such a pair's combination but hardly each one alone; the stopping
+    rules end the fit once the cost stops falling, not once these directions settle.
+
     Properties: `converged` (result is successful), `status` (the code's name).
     """
 
@@ -109,6 +120,19 @@ class FitResult(eqx.Module):
         """Dataset `i` of a batched result (from `fit_batch`)."""
         return jax.tree.map(lambda a: a[i], self)
 
+    def weakly_determined(self, threshold: float | None = None) -> list[tuple[str, str, float]]:
+        """``(name, name, correlation)`` of the free fitted parameters (`fit_names`) whose
+        correlation is above `threshold` (default `WEAK_CORRELATION`) in magnitude,
+        strongest first (one fit; for a batch use ``result[i]``)."""
+        threshold = WEAK_CORRELATION if threshold is None else threshold
+        corr = np.asarray(self.corr_fit)
+        free = set(self.free)
+        idx = [i for i, n in enumerate(self.fit_names) if n in free]
+        pairs = [(self.fit_names[i], self.fit_names[j], float(corr[i, j]))
+                 for k, i in enumerate(idx) for j in idx[k + 1:]
+                 if np.isfinite(corr[i, j]) and abs(corr[i, j]) > threshold]
+        return sorted(pairs, key=lambda p: -abs(p[2]))
+
     def summary(self) -> str:
         """A plain-text table: name, value, standard error, relative error (one fit; for
         a batch use ``result[i].summary()``)."""
@@ -120,7 +144,18 @@ class FitResult(eqx.Module):
             v, s = float(self.params[name]), float(self.stderr[name])
             rel = f"{100 * s / abs(v):9.3g} %" if v != 0 else ""
             lines.append(f"  {name:>10s} = {v: .6e}  +- {s:.2e} {rel}")
-        return "\n".join(lines)
+        return "\n".join(lines + weak_lines(self))
+
+
+def weak_lines(res: FitResult) -> list[str]:
+    """The weakly determined pairs of `res` in words (nothing when there are none)."""
+    pairs = res.weakly_determined()
+    if not pairs:
+        return []
+    out = [f"weakly determined (|correlation| > {WEAK_CORRELATION}; condition number "
+           f"{float(res.condition_number):.3g}): the data fix these combinations, not each "
+           "parameter alone:"]
+    return out + [f"  {a} ~ {b}: correlation {c:+.4f}" for a, b, c in pairs]
 
 
 def _assemble(problem: _Problem, core: _Core, prediction, residuals,

@@ -127,8 +127,31 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
         resid, jac, force, overflow = _evaluate_impl(problem, y, data)
     result = optx.RESULTS.where(sol.stats["num_steps"] == 0,
                                 optx.RESULTS.nonlinear_max_steps_reached, sol.result)
+    # A solve that never left its start is converged only if the start is an optimum (the
+    # gradient test of `STUCK_COSINE`, as in `fitting._chunked`); otherwise it is stuck.
+    # A residual at round-off (an exact fit) is an optimum whatever its direction.
+    exact = jnp.sqrt(jnp.mean(resid**2)) <= EXACT_RESIDUAL
+    stuck = jnp.all(y == y0) & ~exact & (
+        _max_cosine(jac, resid, problem.layout.coordinate_mask()) > STUCK_COSINE)
+    result = optx.RESULTS.where(stuck & (result == optx.RESULTS.successful),
+                                optx.RESULTS.nonlinear_divergence, result)
     return _finish_impl(problem, y, data, resid, jac, force, overflow, result,
                         sol.stats["num_steps"])
+
+
+#: A fit none of whose steps moves it (or lowers the cost) is at its optimum if the largest
+#: cosine between a free Jacobian column and the residual is at most this; otherwise stuck.
+STUCK_COSINE = 1e-4
+#: RMS of the scaled residuals (in units of the force's scale) below which a fit is exact.
+EXACT_RESIDUAL = 1e-10
+
+
+def _max_cosine(jac, resid, mask):
+    """MINPACK's gradient test over the free columns: the largest ``|J_i . r| / (|J_i| |r|)``
+    (0 for a zero residual or no free column)."""
+    norms = jnp.linalg.norm(jac, axis=0) * jnp.linalg.norm(resid)
+    cos = jnp.abs(jac.T @ resid) / jnp.where(norms > 0, norms, 1.0)
+    return jnp.max(jnp.where((norms > 0) & (mask > 0), cos, 0.0))
 
 
 def _evaluate_impl(problem: _Problem, y, data: Dataset):

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 
@@ -121,3 +122,20 @@ def test_montecarlo_speed_quick_runs_and_renders(tmp_path):
     text = md.read_text()
     assert "## Monte-Carlo, batch and single trajectory against Numba prange" in text
     assert "smoke run" in text and all(c in text for c in cases)
+
+
+def test_fit_speed_runs_and_writes_json(tmp_path):
+    out = tmp_path / "fit_speed.json"
+    printed = _run("fit_speed.py", "--quick", "--json", out)
+    data = json.loads(out.read_text())
+    (row,) = data["rows"]
+    assert row["n"] == 2000 and "x warm" in printed
+    # Same start for both: 11 free parameters, each moved by 15 %; c held.
+    assert len(data["start_factors"]) == 11 and "c" not in data["start_factors"]
+    assert set(data["start_factors"].values()) <= {0.85, 1.15}
+    for side in ("jaxfric", "scipy"):
+        assert row[side]["warm_s"] > 0 and row[side]["steps"] > 0
+        assert np.isfinite(row[side]["rmse"])
+    assert row["scipy"]["first_s"] >= row["scipy"]["warm_s"]  # + the Numba compilation
+    assert {g["goal"] for g in data["goals"]} == {"warm speed-up", "first-call speed-up",
+                                                  "RMSE vs scipy"}

@@ -13,7 +13,7 @@ import numpy as np
 from jaxfric import data as _data, units as _units
 
 from .._params import natural_units
-from .._result import saved_model
+from .._result import saved_model, weak_lines
 
 
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
@@ -125,7 +125,8 @@ def param_table(res, kind: str = _units.LINEAR) -> str:
         v, s = float(res.params[name]), float(res.stderr[name])
         rel = f"{100 * s / abs(v):7.2g}%" if v != 0 and np.isfinite(s) else "       -"
         lines.append(f"{name:>10}  {v:>14.6g}  {s:>10.3g}  {rel:>8}  {units.get(name, '?')}")
-    return "\n".join(lines)
+    single = hasattr(res, "weakly_determined") and np.ndim(res.rmse) == 0
+    return "\n".join(lines + (weak_lines(res) if single else []))
 
 
 def diagnosis_json(d, kind: str) -> dict:
