@@ -13,10 +13,13 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
   steps and stopped 19 % above the RMSE the scaled solve reached in about 100.
 - *Stopping rules* (`Tolerances`, documented defaults), any one of which ends the fit as
   converged: optimistix's own test (last step and change of every residual below
-  ``atol + rtol*|value|``); the cost fell by less than `ftol` (relative) over the last chunk;
-  the Gauss-Newton step the chunk took changed the prediction by less than `xtol` of the
+  ``atol + rtol*|value|``); the cost fell by less than `ftol` (relative) over the last
+  `CHUNK` steps or more; those steps changed the prediction by less than `xtol` of the
   residual's norm; every column of the Jacobian is nearly orthogonal to the residual
-  (MINPACK's ``gtol``: the largest cosine below `gtol`).
+  (MINPACK's ``gtol``: the largest cosine below `gtol`). The look-back is counted in steps,
+  not calls, so the decision does not depend on how fast the machine runs.
+- *Trust region*: each call starts from the previous call's trust-region size (its
+  Levenberg-Marquardt damping), not from the initial one.
 - `max_steps` and the tolerances are plain Python values here and traced values in the
   compiled chunk (the last chunk's step budget is an array, `_Budgeted`): changing them does
   not recompile, and a second fit of the same shapes reuses the compiled chunk.
@@ -44,7 +47,7 @@ from ._solve import _Core, _evaluate_impl, _finish_impl, STUCK_COSINE
 #: Most solver steps per compiled call (static: the loop bound of `_chunk`).
 CHUNK = 32
 #: Fewest steps per call (the first step of a call only evaluates the residual at its start).
-MIN_CHUNK = 4
+MIN_CHUNK = 8
 #: Target duration of one compiled call (s): the latency of Ctrl-C and of progress reports.
 CHUNK_SECONDS = 1.0
 
@@ -65,13 +68,15 @@ class Tolerances:
 
 
 class _Budgeted(optx.AbstractLeastSquaresSolver):
-    """`solver` that also stops after `budget` steps (an array: a new value does not
-    recompile). Each chunk starts from the solver's initial damping: carrying the trust
-    region over made no measurable difference in steps and cost a second compilation (the
-    first call's state structure differs)."""
+    """`solver` that also stops after `budget` steps, and whose trust region (for a
+    solver with one, e.g. Levenberg-Marquardt) starts at `step_size` when it is > 0: the
+    previous chunk's, so that a chunk goes on where the last one stopped instead of
+    starting again from the initial damping. Both are arrays: new values do not
+    recompile."""
 
     solver: Any
     budget: Array
+    step_size: Array
 
     @property
     def rtol(self):
@@ -87,6 +92,10 @@ class _Budgeted(optx.AbstractLeastSquaresSolver):
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
         inner = self.solver.init(fn, y, args, options, f_struct, aux_struct, tags)
+        if hasattr(inner, "search_state") and hasattr(inner.search_state, "step_size"):
+            size = inner.search_state.step_size
+            inner = eqx.tree_at(lambda s: s.search_state.step_size, inner,
+                                jnp.where(self.step_size > 0, self.step_size, size))
         return inner, jnp.zeros((), jnp.int32)
 
     def step(self, fn, y, args, options, state, tags):
@@ -111,6 +120,7 @@ class _ChunkOut(eqx.Module):
     jac: Array  # d resid / d y (not z)
     force: Array
     overflow: Array
+    step_size: Array  # the trust region's at the end (0 for a solver without one)
 
 
 def _scaled_residuals(z, args):
@@ -119,19 +129,23 @@ def _scaled_residuals(z, args):
 
 
 @eqx.filter_jit
-def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget) -> _ChunkOut:
+def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
+           step_size) -> _ChunkOut:
     """At most ``min(budget, CHUNK)`` solver steps from `y_c` in the coordinates
     ``z = (y - y_c) / inv_d``; residuals and Jacobian at the last accepted point are taken
     from the solver's state (see `fitting._solve._solve_impl` for why)."""
     args = (problem, data, _force_scale(data), y_c, inv_d)
-    sol = optx.least_squares(_scaled_residuals, _Budgeted(solver, budget), jnp.zeros_like(y_c),
-                             args, has_aux=True, max_steps=CHUNK, throw=False)
+    sol = optx.least_squares(_scaled_residuals, _Budgeted(solver, budget, step_size),
+                             jnp.zeros_like(y_c), args, has_aux=True, max_steps=CHUNK,
+                             throw=False)
     inner = sol.state[0]
     force, overflow = inner.aux
+    search = getattr(inner, "search_state", None)
+    size = getattr(search, "step_size", jnp.zeros(()))
     return _ChunkOut(y=y_c + inv_d * sol.value, result=sol.result,
                      num_steps=sol.stats["num_steps"], resid=inner.f_info.residual.ravel(),
                      jac=inner.f_info.jac.as_matrix() / inv_d, force=force,
-                     overflow=overflow)
+                     overflow=overflow, step_size=jnp.asarray(size, y_c.dtype))
 
 
 _evaluate = eqx.filter_jit(_evaluate_impl)
@@ -164,31 +178,40 @@ class _Progress:
 
 
 
-def _stop_reason(out: _ChunkOut, budget: int, cost0: float, cost: float, y_prev,
-                 tol: Tolerances):
+def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances):
     """``(why, converged)`` after this chunk, ``why`` in words, or ``(None, False)`` to go
-    on."""
+    on. `ref` is ``(steps, cost, y)`` of the fit at least `CHUNK` steps before (or at its
+    start): the cost and step rules look back that far whatever the chunks' sizes, so the
+    decision does not depend on how fast the machine ran them."""
     if int(out.num_steps) < budget:
         return "the solver's own test (last step and residual change within rtol/atol)", True
-    if np.isfinite(cost0) and cost0 - cost <= 0:
-        if budget < CHUNK:  # a short chunk whose steps were all rejected: try a longer one
-            return None, False
+    ref_steps, ref_cost, ref_y = ref
+    window = f"the last {ref_steps} steps"
+    if np.isfinite(ref_cost) and ref_cost - cost <= 0:
         cosine = _max_cosine(out.jac, out.resid)
         if cosine <= STUCK_COSINE:
             return (f"no step lowers the cost, and the gradient is nil (cosine "
                     f"{cosine:.1e}): at the optimum", True)
         return (f"no step lowers the cost although the gradient is not nil (cosine "
                 f"{cosine:.1e}): the fit is stuck", False)
-    if np.isfinite(cost0) and cost0 - cost <= tol.ftol * cost0:
-        return (f"the cost fell by less than ftol = {tol.ftol:g} (relative) over the last "
-                f"{int(out.num_steps)} steps", True)
+    if np.isfinite(ref_cost) and ref_cost - cost <= tol.ftol * ref_cost:
+        return f"the cost fell by less than ftol = {tol.ftol:g} (relative) over {window}", True
     resid = np.asarray(out.resid)
-    moved = float(np.linalg.norm(np.asarray(out.jac) @ (np.asarray(out.y) - np.asarray(y_prev))))
+    moved = float(np.linalg.norm(np.asarray(out.jac) @ (np.asarray(out.y) - np.asarray(ref_y))))
     if moved <= tol.xtol * float(np.linalg.norm(resid)):
-        return f"the last steps changed the prediction by less than xtol = {tol.xtol:g}", True
+        return (f"{window} changed the prediction by less than xtol = {tol.xtol:g} of the "
+                "residual", True)
     if _max_cosine(out.jac, resid) <= tol.gtol:
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", True
     return None, False
+
+
+def _reference(history: list, steps: int) -> tuple:
+    """The latest ``(steps, cost, y)`` of `history` at least `CHUNK` steps before `steps`
+    (the oldest entry if none is), with its steps counted back from `steps`."""
+    old = [h for h in history if h[0] <= steps - CHUNK] or history[:1]
+    k, cost, y = old[-1]
+    return steps - k, cost, y
 
 
 def _next_budget(steps: int, max_steps: int, per_step: float | None) -> int:
@@ -210,24 +233,27 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         return core, "max_steps = 0: no step taken"
     y, steps, per_step = y0, 0, None
     d = np.zeros(np.shape(y0))
-    cost = np.inf
+    step_size = jnp.zeros(())
+    history = [(0, np.inf, np.asarray(y0))]  # (steps, cost, y) after each call
     result, reason, converged, out = optx.RESULTS.successful, None, False, None
     t0 = time.perf_counter()
     while steps < max_steps:
         budget = _next_budget(steps, max_steps, per_step)
         tick = time.perf_counter()
         inv_d = jnp.asarray(1.0 / np.where(d > 0, d, 1.0))
-        out = _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32))
+        out = _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
+                     step_size)
         taken = int(out.num_steps)
         steps += taken
         result = out.result
-        new_cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
-        if result != optx.RESULTS.successful or not np.isfinite(new_cost):
+        cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
+        if result != optx.RESULTS.successful or not np.isfinite(cost):
             reason, y = f"the solver stopped ({result})", out.y
             break
-        reason, converged = _stop_reason(out, budget, cost, new_cost, y, tol)
-        cost_before = cost
-        y, cost = out.y, new_cost
+        # (The start's cost is not evaluated: inf, so the cost rules wait for a reference.)
+        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol)
+        y, step_size = out.y, out.step_size
+        history.append((steps, cost, np.asarray(y)))
         d = np.maximum(d, _column_norms(out.jac))
         if progress is not None:
             progress(_Progress(steps, cost, time.perf_counter() - t0))
@@ -235,10 +261,6 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             break
         # Time per step measured from the second call on (the first also compiles).
         per_step = (time.perf_counter() - tick) / max(taken, 1) if steps > taken else None
-        if np.isfinite(cost_before) and new_cost >= cost_before:
-            # Every step rejected: a full chunk next, for the damping to grow (each call
-            # starts from the solver's initial damping).
-            per_step = 0.0
     if reason is None:
         result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
                           f"max_steps = {max_steps} reached")
