@@ -39,6 +39,10 @@ def _grid(name, t, x, v, F):
         dmax = np.ptp(x) / 2
         travel = np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)  # 2*F_pre/k_pre
         return [fx.Presliding(F_pre=level, k_pre=2 * level / d) for d in travel]
+    if name == "drift":  # linear (wear), or settling (a warm-up) over a tenth to twice the record
+        span = max(float(t[-1] - t[0]), 1e-9)
+        return [fx.Drift(drift_rate=1.0, drift_decay=d)
+                for d in (0.0, *(1.0 / np.geomspace(span / 10, 2 * span, 10)))]
     if name == "friction_lag":
         span = t[-1] - t[0]
         taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)

@@ -33,9 +33,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 
 import jaxfric
 
+from ._chunked import solve_chunked, Tolerances
 from ._data import check_dataset, Dataset, stack
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
@@ -43,7 +45,7 @@ from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solve
 
 
 def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Dataset, solver,
-                 max_steps: int):
+                 max_steps: int, tol: Tolerances | None = None, progress=None):
     """Solve for checked datasets stacked (and possibly re-weighted) into `data`.
 
     Returns the `FitResult` (per-dataset `prediction`/`residuals` tuples, padding removed)
@@ -52,14 +54,18 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     """
     solver = default_solver() if solver is None else solver
     problem = problem.bounded(data)
-    core = _solve(problem, y0, data, solver, max_steps)
+    if isinstance(solver, optx.AbstractLeastSquaresSolver):
+        core, stopped = solve_chunked(problem, y0, data, solver, max_steps,
+                                      tol or Tolerances(), progress)
+    else:  # a minimiser: one compiled loop (no Jacobian to scale by)
+        core, stopped = _solve(problem, y0, data, solver, max_steps), ""
     _warn_overflow(core)
     # Sliced and subtracted in NumPy: op by op in JAX, each new length compiles kernels.
     force = np.asarray(core.prediction)
     pred = [force[i, : d.t.shape[0]] for i, d in enumerate(checked)]
     resid = tuple(jnp.asarray(p - np.asarray(d.F)) for p, d in zip(pred, checked))
     pred = tuple(jnp.asarray(p) for p in pred)
-    return _assemble(problem, core, pred, resid), core.fit_model
+    return _assemble(problem, core, pred, resid, stopped), core.fit_model
 
 
 def fit_datasets(
@@ -71,6 +77,10 @@ def fit_datasets(
     solver=None,
     max_steps: int = 256,
     reparameterize: bool = True,
+    ftol: float = Tolerances.ftol,
+    xtol: float = Tolerances.xtol,
+    gtol: float = Tolerances.gtol,
+    progress=None,
 ) -> FitResult:
     """Fit `model` to several experiments at once (one residual vector for all of them).
 
@@ -83,7 +93,8 @@ def fit_datasets(
         raise ValueError("need at least one dataset")
     checked = [check_dataset(d, where=f"dataset {i}: ") for i, d in enumerate(datasets)]
     problem, y0 = _problem(model, props, free, reparameterize)
-    result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps)
+    result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps,
+                             Tolerances(ftol, xtol, gtol), progress)
     return _as_simulated(result, checked)
 
 
@@ -114,6 +125,10 @@ def fit(
     max_steps: int = 256,
     weights=None,
     reparameterize: bool = True,
+    ftol: float = Tolerances.ftol,
+    xtol: float = Tolerances.xtol,
+    gtol: float = Tolerances.gtol,
+    progress=None,
 ) -> FitResult:
     """Least-squares fit of any jaxfric model to one experiment.
 
@@ -131,6 +146,14 @@ def fit(
       custom transforms, bounds or scales.
     - `solver`: an optimistix least-squares solver or minimiser (default `default_solver`).
     - `max_steps`: iteration limit; reaching it is reported, not raised.
+    - `ftol`, `xtol`, `gtol`: when the fit is done (`fitting._chunked.Tolerances`: the cost
+      fell by less than `ftol` relative over the last steps; the last steps changed the
+      prediction by less than `xtol` of the residual's norm; no Jacobian column has a
+      cosine above `gtol` with the residual), besides the solver's own rtol/atol test.
+      Neither these nor `max_steps` recompile: a second fit of the same shapes reuses the
+      compiled solver. Why the fit stopped is in ``result.stopped``.
+    - `progress`: called after every compiled chunk of steps (about a second each) with
+      ``.steps``, ``.cost`` and ``.seconds``; Ctrl-C stops the fit between chunks.
     - `weights`: per-sample weights >= 0 (``None``: all 1).
     - `reparameterize`: fit a `PaperShape` in `NormalizedPaperShape` coordinates (default;
       see `jaxfric.NormalizedPaperShape` for why); ``False`` fits ``a, b, c, alpha, beta,
@@ -141,7 +164,8 @@ def fit(
     """
     data = Dataset(t=t, x=x, F=F, v=v, weights=weights)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
-                       max_steps=max_steps, reparameterize=reparameterize)
+                       max_steps=max_steps, reparameterize=reparameterize, ftol=ftol,
+                       xtol=xtol, gtol=gtol, progress=progress)
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), out,
                        (out.prediction[0], out.residuals[0]))
 

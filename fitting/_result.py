@@ -69,6 +69,8 @@ class FitResult(eqx.Module):
       accepted step) failed to fire because round-off made it reject its steps.
     - `free`: names of the fitted leaves; `overflow`: memory-stack overflows in the final
       simulation (0 unless the model's ``stack_size`` is too small).
+    - `stopped`: why the fit stopped, in words (which stopping rule of
+      `fitting._chunked.Tolerances` fired, or the step limit); empty for `fit_batch`.
 
     Properties: `converged` (result is successful), `status` (the code's name).
     """
@@ -93,6 +95,7 @@ class FitResult(eqx.Module):
     names: tuple[str, ...] = eqx.field(static=True)
     fit_names: tuple[str, ...] = eqx.field(static=True)
     free: tuple[str, ...] = eqx.field(static=True)
+    stopped: str = eqx.field(static=True, default="")
 
     @property
     def converged(self) -> Array:
@@ -112,7 +115,7 @@ class FitResult(eqx.Module):
         head = (f"status: {self.status}   steps: {int(self.num_steps)}   "
                 f"RMSE: {float(self.rmse):.4g} N   NRMSE: {float(self.nrmse):.4g}   "
                 f"R2: {float(self.r2):.6f}")
-        lines = [head]
+        lines = [head] + ([f"stopped: {self.stopped}"] if self.stopped else [])
         for name in self.names:
             v, s = float(self.params[name]), float(self.stderr[name])
             rel = f"{100 * s / abs(v):9.3g} %" if v != 0 else ""
@@ -120,7 +123,8 @@ class FitResult(eqx.Module):
         return "\n".join(lines)
 
 
-def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResult:
+def _assemble(problem: _Problem, core: _Core, prediction, residuals,
+              stopped: str = "") -> FitResult:
     """Turn solver arrays into a `FitResult` (works on batched cores too)."""
     layout = problem.layout
     batched = core.y.ndim == 2
@@ -151,6 +155,7 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals) -> FitResul
         names=names,
         fit_names=_params.natural_names(first(core.fit_model)),
         free=tuple(n for n, f in zip(layout.names, leaf_free) if f),
+        stopped=stopped,
     )
 
 

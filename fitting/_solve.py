@@ -103,6 +103,8 @@ def _remaining_step(jac, resid, mask, n_obs):
 
 
 def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) -> _Core:
+    """The whole solve in one compiled loop of at most `max_steps` (static) steps: the
+    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`)."""
     scale = _force_scale(data)
     args = (problem, data, scale)
     sol = optx.least_squares(
@@ -122,20 +124,36 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
         resid = f_info.residual.ravel()
         jac = f_info.jac.as_matrix()
     else:  # a minimiser: no Jacobian in its state; evaluate everything at `y`
-        def resid_fn(yy):
-            return _residuals(yy, args)[0].ravel()
+        resid, jac, force, overflow = _evaluate_impl(problem, y, data)
+    result = optx.RESULTS.where(sol.stats["num_steps"] == 0,
+                                optx.RESULTS.nonlinear_max_steps_reached, sol.result)
+    return _finish_impl(problem, y, data, resid, jac, force, overflow, result,
+                        sol.stats["num_steps"])
 
-        force, overflow = _residuals(y, args)[1]
-        resid = resid_fn(y)
-        jac = jax.jacfwd(resid_fn)(y)
+
+def _evaluate_impl(problem: _Problem, y, data: Dataset):
+    """Residuals, Jacobian, force and overflow count at `y` (a separate evaluation)."""
+    args = (problem, data, _force_scale(data))
+
+    def resid_fn(yy):
+        return _residuals(yy, args)[0].ravel()
+
+    force, overflow = _residuals(y, args)[1]
+    return resid_fn(y), jax.jacfwd(resid_fn)(y), force, overflow
+
+
+def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflow, result,
+                 num_steps) -> _Core:
+    """Everything a `FitResult` needs at the solution `y`, from its residuals and Jacobian
+    (no further simulation)."""
     overflow = overflow.astype(jnp.int32)
     observed = data.weights > 0
     n_obs = jnp.sum(observed).astype(y.dtype)
     cov_y, cond = _covariance(jac, resid, problem.layout.coordinate_mask(), n_obs)
     result = optx.RESULTS.where(  # see `FitResult`: dithering at the optimum is converged
-        (sol.result == optx.RESULTS.nonlinear_max_steps_reached)
+        (result == optx.RESULTS.nonlinear_max_steps_reached) & (num_steps > 0)
         & (_remaining_step(jac, resid, problem.layout.coordinate_mask(), n_obs) < 0.03),
-        optx.RESULTS.successful, sol.result)
+        optx.RESULTS.successful, result)
 
     # Delta method: covariances of the reported (paper) parameters and of the fit
     # representation's own parameters, from cov(y).
@@ -150,6 +168,9 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
 
     err = jnp.where(observed, force - data.F, 0.0)
     rmse = jnp.sqrt(jnp.sum(err**2) / n_obs)
+    # A fit whose error is not finite (an overflowing sample, a diverged model) has not
+    # converged, whatever the solver's own test said.
+    result = optx.RESULTS.where(jnp.isfinite(rmse), result, optx.RESULTS.nonfinite)
     f_obs_mean = jnp.sum(jnp.where(observed, data.F, 0.0)) / n_obs
     ss_tot = jnp.sum(jnp.where(observed, (data.F - f_obs_mean) ** 2, 0.0))
     f_range = jnp.max(jnp.where(observed, data.F, -jnp.inf)) - jnp.min(
@@ -162,7 +183,7 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     return _Core(
         y=y,
         result=result,
-        num_steps=sol.stats["num_steps"],
+        num_steps=jnp.asarray(num_steps),
         prediction=force,
         overflow=overflow,
         natural=natural,

@@ -295,17 +295,39 @@ class AngleLoad(AbstractEffect):
 
 
 class Drift(AbstractEffect):
-    """``F_base * drift_rate * (t - t0)``: the friction level changing slowly over time
-    (warm-up, wear), 1/s."""
+    """``F_base * drift_rate * (t - t0) * phi(drift_decay * (t - t0))`` with
+    ``phi(u) = (1 - exp(-u)) / u`` (``phi(0) = 1``): the friction level changing slowly over
+    time, 1/s. With ``drift_decay = 0`` (the default) the change is linear (wear); with
+    ``drift_decay = 1/tau > 0`` it starts at `drift_rate` and settles at
+    ``drift_rate * tau`` with time constant ``tau`` (a warm-up). A negative decay is an
+    accelerating change."""
 
     name: ClassVar[str] = "drift"
     drift_rate: Array = param("1/s", default=0.0)
+    drift_decay: Array = param("1/s", default=0.0)
 
     def term(self, s):
-        return s.base * self.drift_rate * (s.t - s.t0)
+        elapsed = s.t - s.t0
+        return s.base * self.drift_rate * elapsed * _settling(self.drift_decay * elapsed)
 
     def describe(self):
-        return f"friction level drifts by {100 * float(self.drift_rate) * 60:+.3g} % per minute"
+        rate = f"{100 * float(self.drift_rate) * 60:+.3g} % per minute"
+        decay = float(self.drift_decay)
+        if decay == 0:
+            return f"friction level drifts by {rate}"
+        if decay > 0:
+            return (f"friction level drifts by {rate} at first and settles "
+                    f"{100 * float(self.drift_rate) / decay:+.3g} % away with time "
+                    f"constant {1 / decay:.3g} s (a warm-up)")
+        return f"friction level drifts by {rate} at first, faster with time ({1 / -decay:.3g} s)"
+
+
+def _settling(u: Array) -> Array:
+    """``(1 - exp(-u)) / u``, 1 at ``u = 0``; its series below ``|u| = 1e-4``, so the value
+    and the gradient are finite everywhere."""
+    small = jnp.abs(u) < 1e-4
+    safe = jnp.where(small, 1.0, u)
+    return jnp.where(small, 1.0 - u / 2 + u * u / 6, -jnp.expm1(-safe) / safe)
 
 
 class Presliding(AbstractEffect):

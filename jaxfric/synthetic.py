@@ -75,7 +75,8 @@ def _joint_force(name: str, q, dq):
 
 def hidden_force(name: str, t, x, v, a, base, level, static=None):
     """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
-    level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N)."""
+    level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N;
+    ``Fs`` at rest)."""
     travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
     if name in HIDDEN_ROTARY:
         return _joint_force(name, x, x - travel_mid)
@@ -103,7 +104,9 @@ def hidden_force(name: str, t, x, v, a, base, level, static=None):
         return 2.0 * np.sign(v) * np.exp(-((np.abs(v) / 1e-3) ** 2))
     if name == "friction_lag":  # 35 % of the friction level follows speed changes, tau 0.6 s
         # The level is the truth's Stribeck curve |s(v)| (a speed-dependent level lagging
-        # behind the speed, as Hess and Soom measured), held while at rest.
+        # behind the speed, as Hess and Soom measured), held while at rest. `static` is Fs
+        # at rest: a level of 0 there would start the record with a transient of -Fs*0.35
+        # decaying over tau, a start-up artefact that dominated this effect's energy.
         target = 0.35 * static
         y = np.empty_like(target)
         y[0] = target[0]
@@ -145,7 +148,7 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     a = _central(t_fine, v)
     base = np.asarray(simulate(model, t_fine, x_fine, v))
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
-    static = np.abs(np.asarray(model.stribeck(v)))
+    static = np.asarray(model.stribeck.magnitude(v))  # |s(v)|, Fs at rest (s(0) is 0)
     k = ROTARY_SCALE if rotary else 1.0
     force = base + sum((hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
                         for h in hidden), np.zeros_like(base))

@@ -72,6 +72,10 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     data = json.loads(out.read_text())
     assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
     assert "confusion" in printed and data["summary"]["singles"] == 1
+    # The clean twin (same motion and noise, no offset) fits better than the file with it.
+    row = data["files"][1]
+    assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]
+    assert data["summary"]["singles_absorbed_by_base"] == []
 
 
 def test_c_step_runs_and_writes_json(tmp_path):

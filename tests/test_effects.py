@@ -49,7 +49,7 @@ def _numpy_terms(t, x, base):
         "cogging": 0.4 * np.sin(2 * np.pi * x / 1.3e-3) - 0.2 * np.cos(2 * np.pi * x / 1.3e-3),
         "position_dependence": base * (0.1 * u - 0.05 * u**2),
         "position_load": 0.7 * u - 0.3 * (u**2 - 1 / 3),
-        "drift": base * 1e-3 * (t - t[0]),
+        "drift": base * 1e-3 * -np.expm1(-0.3 * (t - t[0])) / 0.3,  # a warm-up, 3.3 s
         "ripple": sum(a * np.sin(k * 2 * np.pi * x / 9e-4) + b * np.cos(k * 2 * np.pi * x / 9e-4)
                       for k, a, b in ((1, 0.3, 0.1), (2, -0.2, 0.05), (3, 0.1, -0.07))),
         "angle_load": 2.5 * np.sin(x) - 1.2 * np.cos(x),
@@ -69,7 +69,7 @@ def _effects(x):
         "cogging": fx.Cogging(cog_sin=0.4, cog_cos=-0.2, period=1.3e-3),
         "position_dependence": fx.PositionDependence.for_travel(x, pos_1=0.1, pos_2=-0.05),
         "position_load": fx.PositionLoad.for_travel(x, load_1=0.7, load_2=-0.3),
-        "drift": fx.Drift(drift_rate=1e-3),
+        "drift": fx.Drift(drift_rate=1e-3, drift_decay=0.3),
         "ripple": fx.Ripple(rip_sin=(0.3, -0.2, 0.1), rip_cos=(0.1, 0.05, -0.07), period=0.9e-3),
         "angle_load": fx.AngleLoad(g_sin=2.5, g_cos=-1.2),
     }
@@ -159,3 +159,21 @@ def test_joint_fit_recovers_hidden_effects():
                        "period": 1.1e-3}.items():
         err = abs(float(res.params[name]) - want)
         assert err < 4 * float(res.stderr[name]), (name, float(res.params[name]), want)
+
+
+def test_drift_without_decay_is_linear_and_smooth_through_zero_decay():
+    t = jnp.linspace(0.0, 100.0, 201)
+    s = fx.Signals(t=t, x=t, v=t, a=t, dt=t, dx=t, t0=t[0], base=jnp.full(t.shape, 20.0),
+                   static=t)
+    np.testing.assert_allclose(fx.Drift(drift_rate=1e-3).term(s), 20.0 * 1e-3 * t,
+                               rtol=1e-14)
+    # Across the switch to the series (|u| = 1e-4) the term and its decay derivative agree
+    # with the exact formula evaluated in high precision.
+    def at(decay):
+        return fx.Drift(drift_rate=1e-3, drift_decay=decay).term(s)[-1]
+
+    for decay in (0.0, 0.99e-6, 1.01e-6, -1.01e-6, 1e-3):
+        exact = 20.0 * 1e-3 * (-np.expm1(-decay * 100.0) / decay if decay else 100.0)
+        np.testing.assert_allclose(at(decay), exact, rtol=1e-12)
+    slope = jax.grad(at)(0.0)
+    np.testing.assert_allclose(slope, -20.0 * 1e-3 * 100.0**2 / 2, rtol=1e-12)

@@ -99,7 +99,7 @@ def _effects(x):
         "cogging": fx.Cogging(cog_sin=0.4, cog_cos=-0.3, period=150 * UM),
         "position_dependence": fx.PositionDependence.for_travel(x, pos_1=0.05, pos_2=-0.03),
         "position_load": fx.PositionLoad.for_travel(x, load_1=0.5, load_2=0.2),
-        "drift": fx.Drift(drift_rate=0.02),
+        "drift": fx.Drift(drift_rate=0.02, drift_decay=0.5),
         "presliding": fx.Presliding(F_pre=2.0, k_pre=2e6),
         "friction_lag": fx.FrictionLag(lag_gain=0.6, tau=0.03),
         "ripple": fx.Ripple(rip_sin=(0.3, -0.1, 0.05), rip_cos=(0.2, 0.08, -0.04),

@@ -88,8 +88,10 @@ def _position_load(e):
 
 
 def _drift(e):
-    return Part(consts=[_c(e, "drift_rate")],
-                step="    total += f * JF_DRIFT_RATE * (t - s->t0);\n")
+    return Part(consts=[_c(e, "drift_rate"), _c(e, "drift_decay")], step=(
+        "    { double el = t - s->t0, u = JF_DRIFT_DECAY * el;\n"
+        "      double phi = fabs(u) < 1e-4 ? 1.0 - u / 2.0 + u * u / 6.0 : -expm1(-u) / u;\n"
+        "      total += f * JF_DRIFT_RATE * el * phi; }\n"))
 
 
 def _presliding(e):

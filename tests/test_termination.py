@@ -1,0 +1,106 @@
+"""Fits that stop when they are done (`fitting._chunked`): stopping rules, Marquardt scaling,
+step budgets and tolerances that do not recompile, progress and interruption."""
+
+import equinox as eqx
+import jax
+import numpy as np
+import pytest
+
+import fitting
+import jaxfric
+from fitting import _chunked
+from jaxfric import paper
+
+
+NOISE = 0.05  # N
+
+
+@pytest.fixture(scope="module")
+def problem():
+    """Sliding strokes of 2 mm with small wiggles at 1 ms, the paper's two-state model plus
+    0.05 N of noise, and a start with every parameter 15 % off (alternately up and down)."""
+    t = np.arange(0.0, 10.0, 1e-3)
+    x = 1e-3 * (1 - np.cos(2 * np.pi * t / 2.5)) + 20e-6 * np.sin(2 * np.pi * 7 * t)
+    true = paper.two_state()
+    F = np.asarray(jaxfric.simulate(true, t, x))
+    F = F + NOISE * np.random.default_rng(3).normal(size=F.shape)
+    leaves, tree = jax.tree.flatten(eqx.filter(true, eqx.is_inexact_array))
+    factors = [1.15 if k % 2 == 0 else 0.85 for k in range(len(leaves))]
+    start = eqx.combine(jax.tree.unflatten(tree, [a * f for a, f in zip(leaves, factors)]),
+                        eqx.filter(true, eqx.is_inexact_array, inverse=True))
+    return t, x, F, start
+
+
+def test_the_fit_stops_in_tens_of_steps_at_the_noise_floor(problem):
+    t, x, F, start = problem
+    res = fitting.fit(start, t, x, F, max_steps=256)
+    assert bool(res.converged), (res.status, res.stopped)
+    assert int(res.num_steps) < 100, (int(res.num_steps), res.stopped)
+    assert float(res.rmse) < 1.02 * NOISE
+    assert res.stopped and "max_steps" not in res.stopped
+
+
+def test_max_steps_is_exact_and_reported(problem):
+    t, x, F, start = problem
+    res = fitting.fit(start, t, x, F, max_steps=7)
+    assert int(res.num_steps) == 7
+    assert res.status == "nonlinear_max_steps_reached" and not bool(res.converged)
+    assert "max_steps = 7" in res.stopped
+
+
+def test_zero_steps_is_not_success(problem):
+    t, x, F, start = problem
+    res = fitting.fit(start, t, x, F, max_steps=0)
+    assert int(res.num_steps) == 0 and not bool(res.converged)
+
+
+def test_a_refit_from_the_optimum_is_converged_at_once(problem):
+    t, x, F, start = problem
+    first = fitting.fit(start, t, x, F)
+    again = fitting.fit(first.model, t, x, F)
+    assert bool(again.converged), (again.status, again.stopped)
+    assert int(again.num_steps) <= 2 * _chunked.MIN_CHUNK
+    np.testing.assert_allclose(float(again.rmse), float(first.rmse), rtol=1e-6)
+
+
+def test_other_budgets_and_tolerances_do_not_recompile(problem, monkeypatch):
+    t, x, F, start = problem
+    traces = []
+    inner = _chunked._scaled_residuals
+
+    def counting(z, args):
+        traces.append(1)
+        return inner(z, args)
+
+    monkeypatch.setattr(_chunked, "_scaled_residuals", counting)
+    # A fresh shape (2000 samples), so that the first fit here compiles for sure.
+    fitting.fit(start, t[:2000], x[:2000], F[:2000], max_steps=20)
+    assert traces, "the chunk was not traced: the test would prove nothing"
+    before = len(traces)
+    fitting.fit(start, t[:2000], x[:2000], F[:2000], max_steps=9, ftol=1e-3, xtol=1e-3,
+                gtol=1e-3)
+    fitting.fit(start, t[:2000], x[:2000], F[:2000], max_steps=300, ftol=1e-12)
+    assert len(traces) == before
+
+
+def test_progress_is_reported_and_an_interrupt_stops_the_fit(problem):
+    t, x, F, start = problem
+    seen = []
+    fitting.fit(start, t, x, F, progress=seen.append)
+    steps = [p.steps for p in seen]
+    assert steps == sorted(steps) and len(steps) >= 2
+    assert all(np.isfinite(p.cost) and p.seconds >= 0 for p in seen)
+
+    def interrupt(p):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        fitting.fit(start, t, x, F, progress=interrupt)
+
+
+def test_chunk_budget_follows_the_time_per_step():
+    assert _chunked._next_budget(0, 256, None) == _chunked.MIN_CHUNK
+    assert _chunked._next_budget(10, 256, 1e-4) == _chunked.CHUNK  # fast: a full chunk
+    assert _chunked._next_budget(10, 256, 0.5) == _chunked.MIN_CHUNK  # slow: the least
+    assert _chunked._next_budget(10, 256, 0.1) == 10  # about one second of work
+    assert _chunked._next_budget(250, 256, 1e-4) == 6  # never past max_steps
