@@ -9,8 +9,10 @@ sample would change the data the user believes was fitted). Two rules, both on o
 - absolute: beyond the SI limits of `jaxfric.data.ABSURD` (files; `fitting` uses the
   rotary limits, the loosest, for arrays given without units);
 - relative (`relative_outlier`): farther from the column's median than `OUTLIER_FACTOR`
-  times the 99th percentile of all samples' distances from it. The percentile is the
-  spread of the column's own signal whatever up to 1 % of glitches do: a sample is
+  times the column's spread: the distance from the median that all but the farthest
+  ``max(1, n // 100)`` samples keep to (about the 99th percentile of the distances,
+  never the glitch itself in a short record). It is the spread of the column's own signal
+  whatever up to 1 % of glitches do: a sample is
   refused only when it is 1000 times farther out than 99 % of the data, which friction
   data, whose force and motion fill more than 1 % of a record, do not produce. (A record
   at rest for over 99 % of its samples, with its motion 1000 times the resting noise,
@@ -26,15 +28,24 @@ import numpy as np
 
 #: A sample farther from the median than this many times the column's spread is refused.
 OUTLIER_FACTOR = 1e3
-#: The spread: this percentile of the distances from the median.
-SPREAD_PERCENTILE = 99.0
+#: Share of samples the spread may leave out (at least one).
+SPREAD_EXCLUDES = 0.01
+
+
+def spread(values: np.ndarray) -> float:
+    """Distance from the median that all but the farthest ``max(1, n * SPREAD_EXCLUDES)``
+    finite samples of `values` keep to."""
+    a = np.asarray(values, dtype=np.float64)
+    a = a[np.isfinite(a)]
+    dist = np.abs(0.5 * a - 0.5 * np.median(a))  # halved: no overflow near 1e308
+    m = max(1, int(a.size * SPREAD_EXCLUDES))
+    return 2.0 * float(np.partition(dist, a.size - 1 - m)[a.size - 1 - m])
 
 
 def relative_outlier(values) -> tuple[int, float, float] | None:
     """``(index, ratio, spread)`` of the sample farthest from the median of `values` (1-D)
-    if its distance is more than `OUTLIER_FACTOR` times the column's spread (the
-    `SPREAD_PERCENTILE` of the distances); else ``None``. Non-finite values are skipped
-    (they are refused elsewhere)."""
+    if its distance is more than `OUTLIER_FACTOR` times the column's `spread`; else
+    ``None``. Non-finite values are skipped (they are refused elsewhere)."""
     a = np.asarray(values, dtype=np.float64)
     finite = np.isfinite(a)
     if finite.sum() < 10:
@@ -42,11 +53,11 @@ def relative_outlier(values) -> tuple[int, float, float] | None:
     # Halved: a - median can overflow for values near the float64 limit.
     half = 0.5 * np.median(a[finite])
     dist = np.where(finite, np.abs(0.5 * a - half), 0.0)
-    spread = float(np.percentile(dist[finite], SPREAD_PERCENTILE))
+    ref = 0.5 * spread(a)
     i = int(np.argmax(dist))
-    if spread == 0 or dist[i] <= OUTLIER_FACTOR * spread:
+    if ref == 0 or dist[i] <= OUTLIER_FACTOR * ref:
         return None
-    return i, float(dist[i] / spread), 2.0 * spread
+    return i, float(dist[i] / ref), 2.0 * ref
 
 
 def message(name: str, value: float, ratio: float, spread: float) -> str:
