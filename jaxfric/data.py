@@ -18,7 +18,7 @@ source, the column and the (1-based, data) row, and for a text file the line as
 (devices and FIFOs are refused unread), a file or column beyond the size limits
 (`MAX_FILE_BYTES`, `MAX_SAMPLES`), a wrong NPZ, no header, missing column, non-numeric
 cell, NaN/inf, time not increasing or duplicated, too few samples, no motion at all, absurd
-magnitudes (beyond `ABSURD`, or a glitch 10^4 times beyond the rest of its column,
+magnitudes (beyond `ABSURD`, or a glitch 1000 times beyond the rest of its column,
 `jaxfric._outliers`), and linear positions spanning more than 2 m with no unit declared (millimetres
 read as metres; declare ``x[m]`` to confirm). Suspicious but possible data give a
 `DataWarning` instead: undeclared units that look like another unit (`jaxfric._plausible`:
@@ -315,7 +315,7 @@ def load_joints(
     out = {}
     for name, mapping in per_joint.items():
         read = (f"{source} {name}", _files.parse_header(source, list(mapping)),
-                {k.split("[")[0]: v for k, v in mapping.items()}, notes, _where(source))
+                {k.split("[")[0]: v for k, v in mapping.items()}, notes, None)
         out[name] = _load(read, units={}, flip_force=flip_force, require_force=require_force,
                           check_sign=check_sign, kind=kind,
                           default_kind=_units.ROTARY if robot else LINEAR)
@@ -422,8 +422,8 @@ def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:
                 row = int(np.argmax(big)) + 1
                 count = int(big.sum())
                 hint = ("is the unit right?" if count > max(1, big.size // 100) else
-                        f"a glitch ({count} such sample(s)): repair or delete the line, or "
-                        "is the unit right?")
+                        f"{count} such sample(s): a glitch? repair or delete that row (or "
+                        "declare the unit if it is wrong)")
                 raise DataError(
                     f"{where(row)}: column {name!r}, row {row}: {columns[name][row - 1]:.6g} is "
                     f"absurd for a {_units.QUANTITY[kind][name]} in "
@@ -436,7 +436,7 @@ def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:
             raise DataError(
                 f"{where(i + 1)}: column {name!r}, row {i + 1}: "
                 f"{_outliers.message(name, columns[name][i], ratio, spread)}; repair or "
-                "delete the line"
+                "delete that row"
             )
 
 

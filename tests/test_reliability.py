@@ -132,7 +132,7 @@ def test_absurd_sample_in_a_file_names_its_line(tmp_path, column, value, fragmen
     message = str(e.value)
     assert message.startswith(f"{path}:{line}: column '{column}', row {row}: "), message
     assert re.search(fragment, message) and "np.float64" not in message
-    assert "delete the line" in message  # what to do
+    assert "delete that row" in message  # what to do
 
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -150,6 +150,18 @@ def test_real_measurements_are_far_from_the_relative_rule(name):
         a = getattr(m, column)
         if a is not None:
             assert np.abs(a - np.median(a)).max() < 5 * _outliers.spread(a)
+
+
+def test_absurd_sample_of_one_joint_names_the_joint(tmp_path):
+    t = np.linspace(0.0, 10.0, 500)
+    q, tau = 0.3 * np.sin(t), np.tanh(50 * np.cos(t))
+    bad = tau.copy()
+    bad[200] = 1e200
+    path = tmp_path / "j.csv"
+    np.savetxt(path, np.column_stack([t, q, q, tau, bad]), delimiter=",",
+               header="t,q1,q2,tau1,tau2", comments="")
+    with pytest.raises(DataError, match=r"j.csv joint 2: column 'F', row 201: 1e\+200 is absurd"):
+        jaxfric.data.load_joints(path)
 
 
 def test_the_relative_rule_refuses_no_ordinary_measurement():
