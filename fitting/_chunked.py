@@ -174,6 +174,8 @@ def _stop_reason(out: _ChunkOut, budget: int, cost0: float, cost: float, y_prev,
     if int(out.num_steps) < budget:
         return "the solver's own test (last step and residual change within rtol/atol)", True
     if np.isfinite(cost0) and cost0 - cost <= 0:
+        if budget < CHUNK:  # a short chunk whose steps were all rejected: try a longer one
+            return None, False
         cosine = _max_cosine(out.jac, out.resid)
         if cosine <= STUCK_COSINE:
             return (f"no step lowers the cost, and the gradient is nil (cosine "
@@ -227,6 +229,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             reason, y = f"the solver stopped ({result})", out.y
             break
         reason, converged = _stop_reason(out, budget, cost, new_cost, y, tol)
+        cost_before = cost
         y, cost = out.y, new_cost
         d = np.maximum(d, _column_norms(out.jac))
         if progress is not None:
@@ -235,6 +238,10 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             break
         # Time per step measured from the second call on (the first also compiles).
         per_step = (time.perf_counter() - tick) / max(taken, 1) if steps > taken else None
+        if np.isfinite(cost_before) and new_cost >= cost_before:
+            # Every step rejected: a full chunk next, for the damping to grow (each call
+            # starts from the solver's initial damping).
+            per_step = 0.0
     if reason is None:
         result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
                           f"max_steps = {max_steps} reached")

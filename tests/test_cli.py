@@ -121,9 +121,9 @@ def test_fit_keeps_its_compilation_on_disk(tmp_path):
            "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0"}
     first = run("fit", path, "--model", "tustin", "--quiet", env=env)
     assert first.returncode == 0, first.stderr
-    hit = "Persistent compilation cache hit for 'jit__solve_impl'"
+    hit = "Persistent compilation cache hit for 'jit__chunk'"
     assert hit not in first.stderr
-    assert any("_solve_impl" in p.name for p in cache.iterdir())
+    assert any("_chunk" in p.name for p in cache.iterdir())
     second = run("fit", path, "--model", "tustin", "--quiet", env=env)
     assert second.returncode == 0, second.stderr
     assert hit in second.stderr
@@ -262,18 +262,21 @@ def test_demo_writes_the_report(tmp_path):
     assert (out / "example.csv").stat().st_size > 0
 
 
-def test_progress_solver_prints_steps():
-    """What `jaxfric fit` prints while it works when its output is a terminal."""
+def test_progress_prints_steps_and_rmse():
+    """What `jaxfric fit` prints while it works when its output is a terminal: after each
+    compiled chunk, the steps so far and the RMSE, which ends at the fit's."""
     from fitting.cli import commands
 
     truth = paper.tustin()
     t, x, F = _synthetic(truth, 0.02, n=300)
     lines = []
     start = eqx.tree_at(lambda m: m.stribeck.Fc, truth, truth.stribeck.Fc * 1.3)
-    res = fitting.fit(start, t, x, F, max_steps=20, solver=commands._progress_solver(
-        lines.append, every_s=0.0))
+    scale = float(np.std(F)) / np.sqrt(F.size)
+    res = fitting.fit(start, t, x, F, max_steps=20,
+                      progress=commands._progress(lines.append, scale, "N"))
     assert res.num_steps > 1
-    assert lines and all(line.lstrip().startswith("step") and "cost" in line for line in lines)
+    assert lines and all(line.lstrip().startswith("step") and "RMSE" in line for line in lines)
+    assert f"{float(res.rmse):.4g} N" in lines[-1]
 
 
 def test_enable_compilation_cache_rules(tmp_path):

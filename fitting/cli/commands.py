@@ -9,7 +9,6 @@ from pathlib import Path
 
 import jax
 import numpy as np
-import optimistix as optx
 
 from jaxfric import data as _data, units as _units
 
@@ -30,25 +29,16 @@ from ._output import atomic_file, write_json
 from .plots import plot_fit
 
 
-def _progress_solver(log, every_s: float = 1.0):
-    """The default LM solver, printing step and cost at most every `every_s` seconds.
+def _progress(log, scale: float, unit: str):
+    """A `fitting.fit` progress callback printing the steps and the RMSE of the samples
+    (`scale`: the force scale of the residuals, from the data) after each compiled chunk
+    of steps (about a second each)."""
 
-    The printing is a host callback inside the compiled solve, and JAX does not keep
-    programs with host callbacks in its disk cache (`jaxfric.enable_compilation_cache`):
-    so `run_fit` uses this only when a person is watching (stdout is a terminal)."""
-    last = [time.perf_counter()]
-    start = last[0]
+    def show(p):
+        log(f"  step {p.steps:4d}   RMSE {scale * (2.0 * p.cost) ** 0.5:.4g} {unit}   "
+            f"({p.seconds:.0f} s)")
 
-    def show(step, loss):
-        now = time.perf_counter()
-        if step > 0 and now - last[0] >= every_s:
-            last[0] = now
-            log(f"  step {int(step):4d}   cost {float(loss):.6e}   ({now - start:.0f} s)")
-
-    def verbose(**kw):
-        jax.debug.callback(show, kw["num_steps"][1], kw["loss_last_accepted_step"][1])
-
-    return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6, verbose=verbose)
+    return show
 
 
 def identification_velocity(m, args, log):
@@ -133,12 +123,14 @@ def fit_measurement(args, kind: str, m, log):
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
     t0 = time.perf_counter()
     watched = not args.quiet and sys.stdout.isatty()
+    # The residuals are in units of the force's standard deviation (`fitting._problem`).
+    scale = float(np.std(m.F)) / np.sqrt(m.F.size) or 1.0
     res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
-               solver=_progress_solver(log) if watched else None)
+               progress=_progress(log, scale, m.unit("F")) if watched else None)
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
         f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
-        f"R2 {float(res.r2):.4f}")
+        f"R2 {float(res.r2):.4f}\nstopped: {res.stopped}")
     log(param_table(res, m.kind))
     if not bool(res.converged):
         print(f"warning: {m.source}: the fit did not converge ({res.status}); the values are "
