@@ -255,9 +255,9 @@ def test_fit_batch_absurd_dataset_fails_alone():
     bad[1][50] = 1e154
     start = fitting.initial_model("tustin", ts[0], xs[0], Fs[0])
     with pytest.warns(DataWarning, match=r"dataset 1: F\[50\] = 1e\+154 .* not fitted"):
-        res = fitting.fit_batch(start, ts, xs, bad, max_steps=30)
+        res = fitting.fit_batch(start, ts, xs, bad, max_steps=10)
     assert res.status[1] != "successful" and not bool(res.converged[1])
-    clean = fitting.fit_batch(start, ts, xs, Fs, max_steps=30)
+    clean = fitting.fit_batch(start, ts, xs, Fs, max_steps=10)
     assert np.isfinite(float(clean.rmse[1]))
     for i in (0, 2):  # the others as if the bad one were not there
         assert res.status[i] == clean.status[i]
@@ -267,7 +267,7 @@ def test_fit_batch_absurd_dataset_fails_alone():
 @pytest.mark.parametrize("kind", ["tustin", pytest.param("two-state", marks=pytest.mark.slow),
                                   pytest.param("lugre", marks=pytest.mark.slow),
                                   pytest.param("gms", marks=pytest.mark.slow)])
-@pytest.mark.parametrize("with_v", [False, True])
+@pytest.mark.parametrize("with_v", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_fit_batch_saved_models_reproduce_their_predictions(kind, with_v):
     """Each dataset of a batch (different lengths, so padded), saved as JSON and read
     back, simulates exactly its prediction and residuals: bit for bit."""
