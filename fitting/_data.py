@@ -9,8 +9,33 @@ there, so padding creates no events). One shape for all stages means one compila
 import jax.numpy as jnp
 import numpy as np
 
-from jaxfric.data import Measurement
+from jaxfric import _outliers
+from jaxfric.data import ABSURD_ROTARY, Measurement
 from jaxfric.motion import velocity
+
+
+def absurd_sample(name: str, a: np.ndarray, w: np.ndarray | None = None
+                  ) -> tuple[int, str] | None:
+    """``(i, why)`` if sample ``name[i]`` cannot be a friction measurement in SI, else
+    ``None``: beyond
+    `jaxfric.data.ABSURD_ROTARY` (the loosest limits: the arrays carry no units), or 1000
+    times beyond the rest of its array (`jaxfric._outliers`). Samples of weight 0 (`w`)
+    are not judged; for ``F`` the message says to give the sample weight 0."""
+    keep = np.ones(a.shape, bool) if w is None else w > 0
+    idx = np.flatnonzero(keep)
+    vals = a[idx]
+    fix = ("give it weight 0 or remove it" if name == "F" else "repair or remove it")
+    big = np.abs(vals) > ABSURD_ROTARY[name]
+    if big.any():
+        i = int(idx[np.argmax(big)])
+        return i, (f"{name}[{i}] = {float(a[i]):.6g} is beyond {ABSURD_ROTARY[name]:g} (SI), "
+                f"absurd for friction data: a glitch ({fix}) or a unit mistake")
+    found = _outliers.relative_outlier(vals)
+    if found is not None:
+        k, ratio, spread = found
+        i = int(idx[k])
+        return i, f"{name}[{i}] = {_outliers.message(name, a[i], ratio, spread)}; {fix}"
+    return None
 
 
 #: One experiment for a fit: `jaxfric.data.Measurement` (the same class), constructed as
@@ -31,8 +56,10 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
     """Validate `data` in NumPy (outside any jit) and return it as float64 arrays.
 
     Shapes, finite `t`/`x`/`v`, strictly increasing `t`, weights >= 0 raise `ValueError`
-    naming the array and the index. Non-finite `F` raises too when `check_force`; otherwise
-    (batches) it is left to the solver, which reports it in that dataset's result code.
+    naming the array and the index, and so does an absurd sample of `x`, `v` (`F` when
+    `check_force`): see `absurd_sample`. Non-finite `F` raises too when `check_force`;
+    otherwise (batches) it is left to the solver, which reports it in that dataset's
+    result code.
     Samples of weight 0 may hold anything in `F` (it is zeroed).
     """
     t = _array("t", data.t, where)
@@ -65,9 +92,17 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
         raise ValueError(f"{where}weights must be >= 0; weights[{int(np.argmax(w < 0))}] < 0")
     if not (w > 0).any():
         raise ValueError(f"{where}all weights are 0")
+    _refuse_absurd(out, w, where, ("x", "v") + (("F",) if check_force else ()))
     out["F"] = np.where(w > 0, out["F"], 0.0)
     out["weights"] = w
     return Dataset(**out)
+
+
+def _refuse_absurd(arrays: dict, w: np.ndarray, where: str, names) -> None:
+    for name in names:
+        found = None if arrays[name] is None else absurd_sample(name, arrays[name], w)
+        if found is not None:
+            raise ValueError(f"{where}{found[1]}")
 
 
 def pad(data: Dataset, n: int) -> Dataset:

@@ -27,6 +27,7 @@ experiments of one fit, and a custom JVP materialises the Jacobian once per eval
 parameters ``theta``, including those derived through a reparameterisation (``a..beta``).
 """
 
+import warnings
 from collections.abc import Iterable, Sequence
 
 import equinox as eqx
@@ -38,7 +39,7 @@ import optimistix as optx
 import jaxfric
 
 from ._chunked import solve_chunked, Tolerances
-from ._data import check_dataset, Dataset, stack
+from ._data import absurd_sample, check_dataset, Dataset, stack
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
 from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solver
@@ -104,12 +105,44 @@ def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
     model fused into its own program, which can differ in the last bits (about 1e-15 N), and
     a saved fit must reproduce its prediction bit for bit (`simulate --params`). A model
     with values that are not finite (a diverged fit) keeps the solve's prediction."""
-    leaves = jax.tree_util.tree_leaves(eqx.filter(result.fit_model, eqx.is_inexact_array))
-    if not all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in leaves):
+    if not _finite(result.fit_model):
         return result
     pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v) for d in checked)
     resid = tuple(jnp.asarray(np.asarray(p) - np.asarray(d.F)) for p, d in zip(pred, checked))
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), result, (pred, resid))
+
+
+def _finite(model) -> bool:
+    leaves = jax.tree_util.tree_leaves(eqx.filter(model, eqx.is_inexact_array))
+    return all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in leaves)
+
+
+def _batch_as_simulated(result: FitResult, checked: Sequence[Dataset], F) -> FitResult:
+    """`_as_simulated` for `fit_batch`: dataset i's prediction (its first samples, padding
+    kept) is `jaxfric.simulate` of its own `fit_model` on its own (unpadded) data, what
+    ``simulate(load_model(saved JSON), t_i, x_i, v_i)`` gives; `F` is the stacked force."""
+    pred = np.array(result.prediction)
+    for i, d in enumerate(checked):
+        model = jax.tree.map(lambda a, i=i: a[i], result.fit_model)
+        if _finite(model):
+            pred[i, : d.t.shape[0]] = np.asarray(jaxfric.simulate(model, d.t, d.x, d.v))
+    return eqx.tree_at(lambda r: (r.prediction, r.residuals), result,
+                       (jnp.asarray(pred), jnp.asarray(pred - np.asarray(F))))
+
+
+def _without_glitches(d: Dataset, i: int) -> Dataset:
+    """`d` with an absurd force sample (`absurd_sample`) made NaN, with a warning: the
+    dataset then fails alone (not ``successful``), as for a non-finite force, instead of
+    reporting success at its start values."""
+    found = absurd_sample("F", d.F, d.weights)
+    if found is None:
+        return d
+    k, why = found
+    warnings.warn(f"dataset {i}: {why}; this dataset is not fitted (its status says so)",
+                  jaxfric.data.DataWarning, stacklevel=3)
+    F = np.array(d.F)
+    F[k] = np.nan
+    return Dataset(t=d.t, x=d.x, F=F, v=d.v, weights=d.weights)
 
 
 def fit(
@@ -198,7 +231,10 @@ def fit_batch(
     `max_steps` reached) reports it in its own ``result``/``status`` and does not change the
     others: each runs its own solver loop. Inputs ``t``, ``x``, ``v`` are checked per
     dataset (``ValueError`` naming the dataset); ``F`` is not, so that one bad dataset
-    fails alone.
+    fails alone: a non-finite or absurd force (`fitting._data.absurd_sample`; a
+    `jaxfric.data.DataWarning` names it) leaves that dataset's status not successful.
+    Dataset i's prediction is `jaxfric.simulate` of its own ``fit_model`` on its data, so
+    the model saved from ``result[i]`` reproduces it bit for bit.
 
     `vectorize`: ``False`` (default) solves the datasets one after the other inside the
     compiled call (`jax.lax.map`), each until its own convergence; on a CPU this compiles
@@ -231,6 +267,8 @@ def fit_batch(
         )
         for i in range(count)
     ]
+    for i, d in enumerate(checked):  # a loop: the warning points at the caller
+        checked[i] = _without_glitches(d, i)
     problem, y0 = _problem(model, props, free, reparameterize)
     solver = default_solver() if solver is None else solver
     stacked = stack(checked)
@@ -244,5 +282,6 @@ def fit_batch(
         core = _solve_batch(problem, y0, data, solver, max_steps, vectorize)
     _warn_overflow(core)
     pred = np.asarray(core.prediction)[:, 0, :]  # NumPy: see `_fit_stacked`
-    return _assemble(problem, core, jnp.asarray(pred),
-                     jnp.asarray(pred - np.asarray(stacked.F)))
+    result = _assemble(problem, core, jnp.asarray(pred),
+                       jnp.asarray(pred - np.asarray(stacked.F)))
+    return _batch_as_simulated(result, checked, stacked.F)

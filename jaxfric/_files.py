@@ -11,12 +11,16 @@ objects, never loaded) or a member that would decompress to more than `MAX_SAMPL
 (a small file that inflates to gigabytes) is refused; a ``.npy`` renamed ``.npz`` is named
 as such.
 
+Errors about a cell name its place as ``FILE:LINE:`` (the 1-based line of the file, as
+compilers do, so that an editor jumps to it) besides the column and the data row.
+
 A column whose first value is text (a date, a label) is not a measurement: it is skipped
 with a note, unless it is one of the standard columns (then its cell is an error naming the
 row). Trailing separators (``1,2,3,``) are accepted.
 """
 
 import array
+import bisect
 import csv
 import itertools
 import os
@@ -81,6 +85,34 @@ def _open(path: Path, mode: str, **kw):
         raise _error(f"{path}: cannot be read ({e.strerror or e})") from None
 
 
+class LineMap:
+    """The file line of each data row of a CSV file, kept as the few breaks where blank or
+    comment lines sit between rows (memory independent of the number of rows)."""
+
+    def __init__(self):
+        self.current = 0  # the line of the last line handed to the CSV reader
+        self._rows: list[int] = []
+        self._lines: list[int] = []
+
+    def track(self, f):
+        """The lines of `f` that hold data (not blank, not comments), noting their number."""
+        for number, ln in enumerate(f, 1):
+            if ln.strip() and not ln.lstrip().startswith("#"):
+                self.current = number
+                yield ln
+
+    def note(self, row: int) -> None:
+        """Data row `row` (1-based) was read from line `current`."""
+        if not self._rows or self.line(row) != self.current:
+            self._rows.append(row)
+            self._lines.append(self.current)
+
+    def line(self, row: int) -> int:
+        """The 1-based file line of data row `row` (1-based)."""
+        k = bisect.bisect_right(self._rows, row) - 1
+        return self._lines[k] + row - self._rows[k] if k >= 0 else 0
+
+
 def parse_header(source: str, names: list[str]) -> list[tuple[str, str | None]]:
     """``[(column, unit or None)]`` from header cells like ``x`` or ``x[mm]``."""
     parsed = []
@@ -125,9 +157,10 @@ def _strip_trailing(cells: list[str], ncol: int) -> list[str]:
     return cells
 
 
-def read_csv(path: Path, standard: frozenset) -> tuple[list, dict, list[str]]:
-    """``([(column, unit)], {column: float64 array}, notes)`` of a delimited text file,
-    streamed; text columns outside `standard` are skipped with a note."""
+def read_csv(path: Path, standard: frozenset) -> tuple[list, dict, list[str], LineMap]:
+    """``([(column, unit)], {column: float64 array}, notes, lines)`` of a delimited text
+    file, streamed; text columns outside `standard` are skipped with a note; ``lines.line(r)``
+    is the file line of data row ``r``."""
     source = str(path)
     check_path(path)
     _refuse_binary(path)
@@ -141,7 +174,8 @@ def read_csv(path: Path, standard: frozenset) -> tuple[list, dict, list[str]]:
 
 
 def _read_text(source, f, standard):
-    lines = (ln for ln in f if ln.strip() and not ln.lstrip().startswith("#"))
+    where = LineMap()
+    lines = where.track(f)
     first = next(lines, None)
     if first is None:
         raise _error(f"{source}: the file is empty")
@@ -155,7 +189,7 @@ def _read_text(source, f, standard):
             "'t,x,F' (units in brackets: 't[s],x[mm],F[N]')"
         )
     parsed = parse_header(source, header)
-    return _read_body(source, parsed, rows, standard)
+    return (*_read_body(source, parsed, rows, standard, where), where)
 
 
 def _refuse_binary(path: Path) -> None:
@@ -169,14 +203,15 @@ def _refuse_binary(path: Path) -> None:
         raise _error(f"{path}: is binary data, not a text (CSV) file")
 
 
-def _read_body(source, parsed, rows, standard):
+def _read_body(source, parsed, rows, standard, where: LineMap):
     ncol = len(parsed)
     first = next(rows, None)
     if first is None:
         raise _error(f"{source}: a header but no data rows")
     first = _strip_trailing([c.strip() for c in first], ncol)
     if len(first) != ncol:
-        raise _error(f"{source}: row 1: {len(first)} cells, the header has {ncol}")
+        raise _error(f"{source}:{where.current}: row 1: {len(first)} cells, the header "
+                     f"has {ncol}")
     keep, notes = [], []
     for c, (name, _) in enumerate(parsed):
         if is_number(first[c]) or name in standard:
@@ -185,9 +220,11 @@ def _read_body(source, parsed, rows, standard):
             notes.append(f"column {name!r} is text ({first[c][:20]!r} in row 1): ignored")
     values = [array.array("d") for _ in keep]
     for r, row in enumerate(itertools.chain([first], rows)):
+        where.note(r + 1)
         row = _strip_trailing(row, ncol)
         if len(row) != ncol:
-            raise _error(f"{source}: row {r + 1}: {len(row)} cells, the header has {ncol}")
+            raise _error(f"{source}:{where.current}: row {r + 1}: {len(row)} cells, the "
+                         f"header has {ncol}")
         if r >= MAX_SAMPLES:
             raise _error(f"{source}: more than {MAX_SAMPLES} rows, the limit for one "
                          "measurement (jaxfric.data.MAX_SAMPLES); split or decimate it")
@@ -195,8 +232,8 @@ def _read_body(source, parsed, rows, standard):
             try:
                 values[k].append(float(row[c]))
             except ValueError:
-                raise _error(f"{source}: column {parsed[c][0]!r}, row {r + 1}: "
-                             f"{row[c].strip()!r} is not a number") from None
+                raise _error(f"{source}:{where.current}: column {parsed[c][0]!r}, "
+                             f"row {r + 1}: {row[c].strip()!r} is not a number") from None
     kept = [parsed[c] for c in keep]
     columns = {name: np.frombuffer(vals, dtype=np.float64).copy()
                for (name, _), vals in zip(kept, values)}
@@ -234,9 +271,9 @@ def _member_header(f, source: str, key: str):
         raise _error(f"{source}: member {key!r} is not a NumPy array ({e})") from None
 
 
-def read_npz(path: Path, standard: frozenset) -> tuple[list, dict, list[str]]:
-    """Like `read_csv` for an ``.npz`` archive (``np.savez``); arrays are checked before
-    they are read."""
+def read_npz(path: Path, standard: frozenset) -> tuple[list, dict, list[str], None]:
+    """Like `read_csv` for an ``.npz`` archive (``np.savez``; no lines, so ``None`` for the
+    line map); arrays are checked before they are read."""
     source = str(path)
     check_path(path)
     with _open(path, "rb") as f:
@@ -247,7 +284,7 @@ def read_npz(path: Path, standard: frozenset) -> tuple[list, dict, list[str]]:
         if magic[:2] != b"PK":
             raise _error(f"{source}: not an .npz file (no zip archive inside)")
         try:
-            return _read_zip(source, zipfile.ZipFile(f), standard)
+            return (*_read_zip(source, zipfile.ZipFile(f), standard), None)
         except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as e:
             raise _error(f"{source}: damaged .npz file ({e})") from None
 

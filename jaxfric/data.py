@@ -13,11 +13,13 @@ linear or rotary (`Measurement.kind`); ``kind=`` (``--rotary``) decides for a fi
 units.
 
 **Checks.** Every problem raises `DataError`, a `ValueError` whose one-line message names the
-source, the column and the (1-based, data) row: a missing, unreadable or non-regular file
+source, the column and the (1-based, data) row, and for a text file the line as
+``FILE:LINE:``: a missing, unreadable or non-regular file
 (devices and FIFOs are refused unread), a file or column beyond the size limits
 (`MAX_FILE_BYTES`, `MAX_SAMPLES`), a wrong NPZ, no header, missing column, non-numeric
 cell, NaN/inf, time not increasing or duplicated, too few samples, no motion at all, absurd
-magnitudes, and linear positions spanning more than 2 m with no unit declared (millimetres
+magnitudes (beyond `ABSURD`, or a glitch 1000 times beyond the rest of its column,
+`jaxfric._outliers`), and linear positions spanning more than 2 m with no unit declared (millimetres
 read as metres; declare ``x[m]`` to confirm). Suspicious but possible data give a
 `DataWarning` instead: undeclared units that look like another unit (`jaxfric._plausible`:
 ms, mm, mN, deg, mm/s, deg/s, rpm), and a force whose sign is opposite to the friction
@@ -36,7 +38,7 @@ from typing import Any
 import equinox as eqx
 import numpy as np
 
-from . import _files, _joints, _plausible, units as _units
+from . import _files, _joints, _outliers, _plausible, units as _units
 from ._files import DataError
 from .motion import velocity
 from .units import LINEAR
@@ -136,29 +138,39 @@ def _from_mapping(data: Mapping[str, Any]):
         if not np.issubdtype(arr.dtype, np.number):
             raise DataError(f"<arrays>: column {name!r}: not numeric (dtype {arr.dtype})")
         columns[name] = arr.astype(np.float64)
-    return parsed, columns, []
+    return parsed, columns, [], None
 
 
-def _read(data) -> tuple[str, list[tuple[str, str | None]], dict[str, np.ndarray], list[str]]:
-    """``(source, [(column, header unit)], {column: values}, notes)`` from a path, a
-    DataFrame or a mapping."""
+def _read(data) -> tuple[str, list[tuple[str, str | None]], dict[str, np.ndarray], list[str],
+                         Any]:
+    """``(source, [(column, header unit)], {column: values}, notes, where)`` from a path, a
+    DataFrame or a mapping; ``where(row)`` is how a message names a data row's place
+    (``FILE:LINE`` for a text file, else the source)."""
+    lines = None
     if isinstance(data, str | Path):
         path = Path(data)
         source = str(path)
         if path.suffix.lower() == ".npz":
-            parsed, columns, notes = _files.read_npz(path, _STANDARD)
+            parsed, columns, notes, lines = _files.read_npz(path, _STANDARD)
         else:
-            parsed, columns, notes = _files.read_csv(path, _STANDARD)
+            parsed, columns, notes, lines = _files.read_csv(path, _STANDARD)
     elif hasattr(data, "columns") and hasattr(data, "to_numpy"):  # a DataFrame
         source = "<DataFrame>"
-        parsed, columns, notes = _from_mapping(
+        parsed, columns, notes, _ = _from_mapping(
             {str(c): data[c].to_numpy() for c in data.columns})
     elif isinstance(data, Mapping):
         source = "<arrays>"
-        parsed, columns, notes = _from_mapping(data)
+        parsed, columns, notes, _ = _from_mapping(data)
     else:
         raise TypeError(f"cannot load a {type(data).__name__}; give a path, a DataFrame or a dict")
-    return source, parsed, columns, notes
+    return source, parsed, columns, notes, _where(source, lines)
+
+
+def _where(source: str, lines=None):
+    """``row -> place`` for messages: ``FILE:LINE`` when the file's lines are known."""
+    if lines is None:
+        return lambda row: source
+    return lambda row: f"{source}:{lines.line(row)}"
 
 
 def _declared(source: str, columns: dict, header_unit: dict, units: dict) -> dict[str, str]:
@@ -295,7 +307,7 @@ def load_joints(
     a numbered column (``{"q2": "deg"}``), a prefix for all joints (``{"q": "deg"}``) or a
     standard column (``{"x": "deg"}``); the other arguments are as for `load`.
     """
-    source, parsed, columns, notes = _read(data)
+    source, parsed, columns, notes, _ = _read(data)
     if _joints.joint_layout(columns) is None:
         raise DataError(f"{source}: one joint only (no q1.., x1.. or 'joint' column); "
                         "use jaxfric.data.load")
@@ -303,7 +315,7 @@ def load_joints(
     out = {}
     for name, mapping in per_joint.items():
         read = (f"{source} {name}", _files.parse_header(source, list(mapping)),
-                {k.split("[")[0]: v for k, v in mapping.items()}, notes)
+                {k.split("[")[0]: v for k, v in mapping.items()}, notes, None)
         out[name] = _load(read, units={}, flip_force=flip_force, require_force=require_force,
                           check_sign=check_sign, kind=kind,
                           default_kind=_units.ROTARY if robot else LINEAR)
@@ -322,7 +334,7 @@ def joint_layout(data) -> str | None:
 
 def _load(read, *, units, flip_force, require_force, check_sign, kind,
           default_kind: str = LINEAR) -> Measurement:
-    source, parsed, columns, read_notes = read
+    source, parsed, columns, read_notes, where = read
     layout = _joints.joint_layout(columns)
     if layout is not None:
         raise DataError(f"{source}: holds several joints ({layout} layout: "
@@ -334,7 +346,7 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     declared = _declared(source, columns, header_unit, units)
     kind = _decide_kind(source, declared, kind, _units.ROTARY if robot else default_kind)
     notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
-    _check(source, columns, require_force, kind)
+    _check(source, columns, require_force, kind, where)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal")},
         source=source,
@@ -361,7 +373,8 @@ def sign_correlation(m: Measurement) -> float:
 
 
 def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
-           kind: str = LINEAR) -> None:
+           kind: str = LINEAR, where=None) -> None:
+    where = where or _where(source)
     for name in ("t", "x"):
         if name not in columns:
             raise DataError(f"{source}: missing column {name!r} (columns: {', '.join(columns)})")
@@ -378,7 +391,7 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
         if bad.any():
             row = int(np.argmax(bad)) + 1
             raise DataError(
-                f"{source}: column {name!r}, row {row}: {float(arr[row - 1])} (not finite)")
+                f"{where(row)}: column {name!r}, row {row}: {float(arr[row - 1])} (not finite)")
     if n < MIN_SAMPLES:
         raise DataError(f"{source}: only {n} samples; need at least {MIN_SAMPLES}")
     t = columns["t"]
@@ -387,18 +400,19 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
         i = int(np.argmax(dt <= 0))
         what = "repeats" if dt[i] == 0 else "decreases"
         raise DataError(
-            f"{source}: column 't', row {i + 2}: time {what} ({float(t[i + 1])!r} after "
+            f"{where(i + 2)}: column 't', row {i + 2}: time {what} ({float(t[i + 1])!r} after "
             f"{float(t[i])!r}); "
             "it must be strictly increasing"
         )
-    _check_ranges(source, columns, kind)
+    _check_ranges(columns, kind, where)
     if np.ptp(columns["x"]) == 0:
         raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
 
 
-def _check_ranges(source: str, columns: dict[str, np.ndarray], kind: str) -> None:
-    """Refuse values beyond `ABSURD` in SI (a time span from the first sample): almost
-    always a unit mistake."""
+def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:
+    """Refuse values beyond `ABSURD` in SI (a time span from the first sample): a unit
+    mistake when many are, a glitch when a few are; then glitches relative to the rest of
+    their column (`jaxfric._outliers`)."""
     for name, limit in (ABSURD_ROTARY if kind == _units.ROTARY else ABSURD).items():
         if name in columns:
             big = np.abs(columns[name]) > limit
@@ -406,12 +420,24 @@ def _check_ranges(source: str, columns: dict[str, np.ndarray], kind: str) -> Non
                 big = np.abs(columns[name] - columns[name][0]) > limit
             if big.any():
                 row = int(np.argmax(big)) + 1
+                count = int(big.sum())
+                hint = ("is the unit right?" if count > max(1, big.size // 100) else
+                        f"{count} such sample(s): a glitch? repair or delete that row (or "
+                        "declare the unit if it is wrong)")
                 raise DataError(
-                    f"{source}: column {name!r}, row {row}: {columns[name][row - 1]:.6g} is absurd "
-                    f"for a {_units.QUANTITY[kind][name]} in {_units.si_unit(name, kind)} "
-                    f"(limit {limit:g}); "
-                    "is the unit right?"
+                    f"{where(row)}: column {name!r}, row {row}: {columns[name][row - 1]:.6g} is "
+                    f"absurd for a {_units.QUANTITY[kind][name]} in "
+                    f"{_units.si_unit(name, kind)} (limit {limit:g}); {hint}"
                 )
+    for name in ("x", "v", "F", "u", "normal"):
+        found = _outliers.relative_outlier(columns[name]) if name in columns else None
+        if found is not None:
+            i, ratio, spread = found
+            raise DataError(
+                f"{where(i + 1)}: column {name!r}, row {i + 1}: "
+                f"{_outliers.message(name, columns[name][i], ratio, spread)}; repair or "
+                "delete that row"
+            )
 
 
 def _check_length_unit(m: Measurement) -> None:
