@@ -16,7 +16,9 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
   ``atol + rtol*|value|``); the cost fell by less than `ftol` (relative) over the last
   `CHUNK` steps or more; those steps changed the prediction by less than `xtol` of the
   residual's norm; every column of the Jacobian is nearly orthogonal to the residual
-  (MINPACK's ``gtol``: the largest cosine below `gtol`). The look-back is counted in steps,
+  (MINPACK's ``gtol``: the largest cosine below `gtol`); the Gauss-Newton step still left
+  is shorter than `setol` standard errors (the statistician's test: what is left is far
+  below the noise, however slowly the solver would creep there). The look-back is counted in steps,
   not calls, so the decision does not depend on how fast the machine runs.
 - *Trust region*: each call starts from the previous call's trust-region size (its
   Levenberg-Marquardt damping), not from the initial one.
@@ -59,12 +61,17 @@ class Tolerances:
     - `ftol`: relative decrease of the cost ``sum(r^2)/2`` over the last chunk of steps;
     - `xtol`: change of the prediction by the last chunk's steps, linearised
       (``|J dy|``), relative to the norm of the residual;
-    - `gtol`: largest cosine between a Jacobian column and the residual.
+    - `gtol`: largest cosine between a Jacobian column and the residual;
+    - `setol`: length, in standard errors, of the Gauss-Newton step still left (``sqrt(z2)``,
+      ``z2 = |J dy|^2 / s^2``: the cost a full step could still remove, in units of the
+      noise variance ``s^2 = RSS/n``). Below 0.1 the parameters are settled to a tenth of
+      their uncertainty: further steps only creep along weakly determined directions.
     """
 
     ftol: float = 1e-6
     xtol: float = 1e-6
     gtol: float = 1e-8
+    setol: float = 0.1
 
 
 class _Budgeted(optx.AbstractLeastSquaresSolver):
@@ -178,7 +185,8 @@ class _Progress:
 
 
 
-def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances):
+def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances,
+                 mask, n_obs: int):
     """``(why, converged)`` after this chunk, ``why`` in words, or ``(None, False)`` to go
     on. `ref` is ``(steps, cost, y)`` of the fit at least `CHUNK` steps before (or at its
     start): the cost and step rules look back that far whatever the chunks' sizes, so the
@@ -203,7 +211,24 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
                 "residual", True)
     if _max_cosine(out.jac, resid) <= tol.gtol:
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", True
+    left = _step_left(out.jac, resid, mask, n_obs)
+    if left <= tol.setol:
+        return (f"the Gauss-Newton step left is {left:.2g} standard errors (setol = "
+                f"{tol.setol:g}): the parameters are settled", True)
     return None, False
+
+
+def _step_left(jac, resid, mask, n_obs: int) -> float:
+    """`fitting._solve._remaining_step` in NumPy: the length, in standard errors, of the
+    Gauss-Newton step left at this point (free coordinates `mask`)."""
+    jf = np.asarray(jac)[:, np.asarray(mask) > 0]
+    resid = np.asarray(resid)
+    if jf.shape[1] == 0:
+        return 0.0
+    u, sv, _ = np.linalg.svd(jf, full_matrices=False)
+    keep = sv > 1e-10 * sv.max() if sv.size and sv.max() > 0 else np.zeros(sv.shape, bool)
+    projected = float(np.sum((u.T @ resid)[keep] ** 2))
+    return float(np.sqrt(projected / max(float(np.sum(resid**2)) / n_obs, 1e-300)))
 
 
 def _reference(history: list, steps: int) -> tuple:
@@ -232,6 +257,8 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                        optx.RESULTS.nonlinear_max_steps_reached, jnp.asarray(0))
         return core, "max_steps = 0: no step taken"
     y, steps, per_step = y0, 0, None
+    mask = np.asarray(problem.layout.coordinate_mask())
+    n_obs = int(np.sum(np.asarray(data.weights) > 0))
     d = np.zeros(np.shape(y0))
     step_size = jnp.zeros(())
     history = [(0, np.inf, np.asarray(y0))]  # (steps, cost, y) after each call
@@ -251,7 +278,8 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             reason, y = f"the solver stopped ({result})", out.y
             break
         # (The start's cost is not evaluated: inf, so the cost rules wait for a reference.)
-        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol)
+        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol,
+                                         mask, n_obs)
         y, step_size = out.y, out.step_size
         history.append((steps, cost, np.asarray(y)))
         d = np.maximum(d, _column_norms(out.jac))

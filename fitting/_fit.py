@@ -81,6 +81,7 @@ def fit_datasets(
     ftol: float = Tolerances.ftol,
     xtol: float = Tolerances.xtol,
     gtol: float = Tolerances.gtol,
+    setol: float = Tolerances.setol,
     progress=None,
 ) -> FitResult:
     """Fit `model` to several experiments at once (one residual vector for all of them).
@@ -95,7 +96,7 @@ def fit_datasets(
     checked = [check_dataset(d, where=f"dataset {i}: ") for i, d in enumerate(datasets)]
     problem, y0 = _problem(model, props, free, reparameterize)
     result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps,
-                             Tolerances(ftol, xtol, gtol), progress)
+                             Tolerances(ftol, xtol, gtol, setol), progress)
     return _as_simulated(result, checked)
 
 
@@ -161,6 +162,7 @@ def fit(
     ftol: float = Tolerances.ftol,
     xtol: float = Tolerances.xtol,
     gtol: float = Tolerances.gtol,
+    setol: float = Tolerances.setol,
     progress=None,
 ) -> FitResult:
     """Least-squares fit of any jaxfric model to one experiment.
@@ -179,10 +181,11 @@ def fit(
       custom transforms, bounds or scales.
     - `solver`: an optimistix least-squares solver or minimiser (default `default_solver`).
     - `max_steps`: iteration limit; reaching it is reported, not raised.
-    - `ftol`, `xtol`, `gtol`: when the fit is done (`fitting._chunked.Tolerances`: the cost
-      fell by less than `ftol` relative over the last steps; the last steps changed the
-      prediction by less than `xtol` of the residual's norm; no Jacobian column has a
-      cosine above `gtol` with the residual), besides the solver's own rtol/atol test.
+    - `ftol`, `xtol`, `gtol`, `setol`: when the fit is done (`fitting._chunked.Tolerances`:
+      the cost fell by less than `ftol` relative over the last steps; the last steps
+      changed the prediction by less than `xtol` of the residual's norm; no Jacobian column
+      has a cosine above `gtol` with the residual; the Gauss-Newton step left is shorter
+      than `setol` standard errors), besides the solver's own rtol/atol test.
       Neither these nor `max_steps` recompile: a second fit of the same shapes reuses the
       compiled solver. Why the fit stopped is in ``result.stopped``.
     - `progress`: called after every compiled chunk of steps (about a second each) with
@@ -198,7 +201,7 @@ def fit(
     data = Dataset(t=t, x=x, F=F, v=v, weights=weights)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
                        max_steps=max_steps, reparameterize=reparameterize, ftol=ftol,
-                       xtol=xtol, gtol=gtol, progress=progress)
+                       xtol=xtol, gtol=gtol, setol=setol, progress=progress)
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), out,
                        (out.prediction[0], out.residuals[0]))
 
