@@ -118,3 +118,10 @@ def test_diagnosis_names_hidden_load_friction_first():
     k = float(next(e for e in d.model.effects if e.name == "load_friction").k_load)
     assert 0.02 < k < 0.04, k  # the truth's 3 % of |load|
     assert d.final.rmse < 0.5 * d.baseline.rmse
+
+
+def test_c_export_refuses_it_by_name():
+    from jaxfric.export import c_code
+
+    with pytest.raises(ValueError, match="'load_friction'.*no load input"):
+        c_code(paper.tustin() + fx.LoadFriction(k_load=0.02))

@@ -106,6 +106,7 @@ def run_fit(args) -> int:
     res = fit_measurement(args, kind, m, log)
     if args.json:
         extra = {} if deadband is None else {"deadband": deadband}
+        extra.update(_load_json(m))
         write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
                                "derivatives": derivatives_json(m, args), **extra})
         log(f"JSON written to {args.json}")
@@ -134,7 +135,7 @@ def fit_measurement(args, kind: str, m, log):
     t0 = time.perf_counter()
     watched = not args.quiet and sys.stdout.isatty()
     res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
-               solver=_progress_solver(log) if watched else None)
+               solver=_progress_solver(log) if watched else None, load=_load_of(m, start))
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
         f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
@@ -156,7 +157,7 @@ def run_diagnose(args) -> int:
     m = load_for_cli(args, log)
     d = diagnose_measurement(args, kind, m, log, args.report)
     if args.json:
-        write_json(args.json, diagnosis_json(d, m.kind))
+        write_json(args.json, {**diagnosis_json(d, m.kind), **_load_json(m)})
         log(f"JSON written to {args.json}")
     return 0
 
@@ -182,8 +183,10 @@ def diagnose_measurement(args, kind: str, m, log, report):
     v, how = identification_velocity(m, args, log)
     start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
+    if m.load is not None:
+        log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
-                 log=log, rotary=m.kind == _units.ROTARY)
+                 log=log, rotary=m.kind == _units.ROTARY, load=m.load)
     d.velocity, d.derivatives = how, derivatives_json(m, args)
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:
@@ -302,7 +305,7 @@ def run_simulate(args) -> int:
     m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, _ = identification_velocity(m, args, log)
     model = _with_stack_size(model, args.stack_size)
-    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, load=_load_of(m, model))
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
@@ -322,6 +325,25 @@ def run_simulate(args) -> int:
               "--stack-size, or filter noisy standstill with --deadband auto",
               file=sys.stderr)
     return 0
+
+
+def _load_json(m) -> dict:
+    """What a result's JSON says of the load signal: ``{"load": {"column": "load",
+    "unit": ...}}`` when the file had one, else nothing."""
+    return {} if m.load is None else {"load": {"column": "load", "unit": m.unit("load")}}
+
+
+def _load_of(m, model):
+    """`m`'s load column for `model`; `DataError` naming the file when `model` has a
+    load-dependent effect (`jaxfric.effects.LOAD_EFFECTS`) and `m` no ``load`` column."""
+    from jaxfric import effects as fx
+
+    needs = [e.name for e in getattr(model, "effects", ()) if e.name in fx.LOAD_EFFECTS]
+    if needs and m.load is None:
+        raise _data.DataError(f"{m.source}: the model has {', '.join(needs)}, which reads the "
+                              "transmitted load: the file needs a 'load' column "
+                              f"(load[{m.unit('F')}])")
+    return m.load
 
 
 def _with_stack_size(model, stack_size):
