@@ -123,5 +123,5 @@ def test_diagnosis_names_hidden_load_friction_first():
 def test_c_export_refuses_it_by_name():
     from jaxfric.export import c_code
 
-    with pytest.raises(ValueError, match="'load_friction'.*no load input"):
+    with pytest.raises(ValueError, match=r"'load_friction'.*no load input"):
         c_code(paper.tustin() + fx.LoadFriction(k_load=0.02))

@@ -4,6 +4,7 @@ and its parameter units, `unit_for`) never speaks of N alone, mm, um or m/s. The
 run of the commands on a joint log is in test_rotary.py; this one covers every effect of
 `jaxfric.effects.EFFECTS`, with values, so that a new effect cannot slip through."""
 
+import dataclasses
 import re
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 from fitting._candidates import Candidate
 from fitting.cli._io import diagnosis_json
 from jaxfric import effects as fx, units
+
 
 #: One instance of each effect with non-default values (a ripple 50 times per turn).
 EXAMPLES = {
@@ -70,8 +72,6 @@ def test_rotary_diagnosis_json_speaks_rotary(name):
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
 def test_rotary_parameter_units(name):
     effect = EXAMPLES[name]
-    import dataclasses
-
     for f in dataclasses.fields(effect):
         unit = f.metadata.get("unit")
         if unit is None:
