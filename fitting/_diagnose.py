@@ -108,6 +108,9 @@ class Diagnosis:
     derivatives: dict | None = None
     #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
     warnings: dict = dataclasses.field(default_factory=dict)
+    #: The deadband (m or rad) the positions were played through before the diagnosis
+    #: (`jaxfric.motion.play`; the command line's ``--deadband``), or None.
+    deadband: float | None = None
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -133,6 +136,7 @@ class Diagnosis:
             "velocity": self.velocity,
             "derivatives": self.derivatives,
             "warnings": self.warnings,
+            **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
 

@@ -38,11 +38,12 @@ LOAD_NOISE = 0.2  # N: white noise of the recorded load
 
 
 def load_signal(t):
-    """The transmitted load (N) at times `t` (s): 20..95 N, two slow swings that share no
-    period with the motion (a payload and a process force), always pushing one way."""
+    """The transmitted load (N) at times `t` (s): 5..95 N, two swings of 3.1 s and 1.3 s
+    that share no period with the motion (a payload and a process force), always pushing
+    one way: faster than the diagnosis's held-out blocks, so every block sees it vary."""
     t = np.asarray(t, dtype=np.float64)
-    return (55.0 + 25.0 * np.sin(2 * np.pi * t / 13.0 + 0.4)
-            + 15.0 * np.sin(2 * np.pi * t / 4.1 + 1.3))
+    return (50.0 + 30.0 * np.sin(2 * np.pi * t / 3.1 + 0.4)
+            + 15.0 * np.sin(2 * np.pi * t / 1.3 + 1.3))
 
 
 def truth(name: str):

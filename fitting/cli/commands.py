@@ -170,6 +170,7 @@ def diagnose_measurement(args, kind: str, m, log, report):
     if m.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
         plain = log
         log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     force, column = m.force, m.force_column
     if column == "u":
         log("note: the file has the drive force u (not F): the model starts as friction only; "
@@ -187,7 +188,7 @@ def diagnose_measurement(args, kind: str, m, log, report):
         log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
                  log=log, rotary=m.kind == _units.ROTARY, load=m.load)
-    d.velocity, d.derivatives = how, derivatives_json(m, args)
+    d.velocity, d.derivatives, d.deadband = how, derivatives_json(m, args), deadband
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:
         from types import SimpleNamespace
@@ -422,6 +423,8 @@ def compare_measurement(args, kinds, m, log) -> dict:
 
     if m.F is None:
         raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
+    extra = {} if deadband is None else {"deadband": deadband}
     v, _ = identification_velocity(m, args, log)
     masks = regimes(m.t, m.x, v)
     rows, results = {}, {}
@@ -431,7 +434,7 @@ def compare_measurement(args, kinds, m, log) -> dict:
         res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps)
         errs = regime_errors(np.asarray(res.residuals), masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
-        results[kind] = {**result_json(kind, res, m), "regimes": errs}
+        results[kind] = {**result_json(kind, res, m), "regimes": errs, **extra}
     names = list(next(iter(rows.values())))
     log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file):")
     log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))

@@ -229,6 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    _add_deadband_option(p, "none; the value used is saved in --json")
     _add_derivative_options(p)
     p.set_defaults(func=_compare)
 
@@ -245,6 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
+    _add_deadband_option(p, "none; the value used is saved in --json")
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 
