@@ -43,7 +43,7 @@ FIT_HELP = """\
 Fit one friction model to a measurement and print its parameters with units and standard
 errors (SI: s, m, m/s, N).
 
-FILE is a CSV (header row: t, x, F; optional v, normal; units in brackets such as x[mm],
+FILE is a CSV (header row: t, x, F; optional v, normal, load; units in brackets such as x[mm],
 F[mN]) or an NPZ with those arrays. F is the friction force with the sign of the velocity;
 if the file uses the opposite sign you will be warned, and --flip-force corrects it.
 The starting values are estimated from the data; all parameters are fitted jointly.
