@@ -61,7 +61,7 @@ def summary_table(results: dict, joints: dict) -> str:
 
 def fit_joints(args, kind: str, log, fit_measurement) -> int:
     """`fit_measurement` (`fitting.cli.commands`) on each joint, then the joints' table."""
-    from .commands import _deadband_option, played_measurement
+    from ._signals import _deadband_option, played_measurement
     from .plots import plot_fit
 
     joints = load_joints_for_cli(args, log)
@@ -159,7 +159,7 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
 def _joint_deadband(args, name: str):
     """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
     a several-joint ``--params`` (or at the top of a one-model ``--params``), else None."""
-    from .commands import _deadband_option
+    from ._signals import _deadband_option
 
     if args.deadband is None and args.params:
         try:
@@ -177,7 +177,7 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
     ``v{i}``, ``F_model{i}`` (and the measured ``F{i}``), in the file's units."""
     import jaxfric
 
-    from .commands import _load_of, played_measurement
+    from ._signals import _load_of, played_measurement
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
