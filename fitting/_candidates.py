@@ -12,13 +12,14 @@ import numpy as np
 from jaxfric import effects as fx
 
 
-def _signals(t, x, v, base, static):
+def _signals(t, x, v, base, static, load=None):
     dt = np.r_[0.0, np.diff(t)]
     a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
     return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
                       dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
                       t0=jnp.asarray(t[0]), base=jnp.asarray(base),
-                      static=jnp.asarray(static))
+                      static=jnp.asarray(static),
+                      load=None if load is None else jnp.asarray(load))
 
 
 def _grid(name, t, x, v, F):
@@ -83,6 +84,7 @@ _LINEAR = {
     "position_load": ("load_1", "load_2"),
     "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
     "ripple": ("rip_sin", "rip_cos"), "angle_load": ("g_sin", "g_cos"),
+    "load_friction": ("k_load",),
 }
 
 
@@ -115,6 +117,7 @@ def _columns(effect, s):
 #: Dissipative terms (viscous, drag) and a Stribeck hump (extra static friction) are not
 #: negative: with a negative coefficient they would stand in for model mismatch, not physics.
 _BOUNDS = {"friction_lag": (0.0, 1.0), "inertia": (0.0, np.inf),  # a mass is not negative
+           "load_friction": (0.0, np.inf),  # friction grows with the load
            "viscous": (0.0, np.inf), "quadratic_drag": (0.0, np.inf), "stribeck": (0.0, np.inf)}
 
 

@@ -39,9 +39,10 @@ def absurd_sample(name: str, a: np.ndarray, w: np.ndarray | None = None
 
 
 #: One experiment for a fit: `jaxfric.data.Measurement` (the same class), constructed as
-#: ``Dataset(t, x, F, v=None, weights=None)`` in SI (s, m, N, m/s; weights >= 0, 0 drops a
-#: sample, ``None`` for ones; ``v`` ``None`` for the backward difference of ``x``, as
-#: `jaxfric.simulate`).
+#: ``Dataset(t, x, F, v=None, weights=None, load=None)`` in SI (s, m, N, m/s; weights >= 0,
+#: 0 drops a sample, ``None`` for ones; ``v`` ``None`` for the backward difference of ``x``,
+#: as `jaxfric.simulate`; ``load`` the transmitted load, N, for
+#: `jaxfric.effects.LoadFriction`).
 Dataset = Measurement
 
 
@@ -67,7 +68,7 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
     if n < 2:
         raise ValueError(f"{where}need at least 2 samples, got {n}")
     out = {"t": t}
-    for name in ("x", "F", "v", "weights"):
+    for name in ("x", "F", "v", "weights", "load"):
         a = getattr(data, name)
         if a is None:
             out[name] = None
@@ -77,7 +78,7 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
             raise ValueError(f"{where}{name} has shape {arr.shape}, t has {t.shape}")
         out[name] = arr
     w = out["weights"] if out["weights"] is not None else np.ones_like(t)
-    for name in ("t", "x", "v", "weights") + (("F",) if check_force else ()):
+    for name in ("t", "x", "v", "weights", "load") + (("F",) if check_force else ()):
         a = out[name]
         if name == "F":
             a = np.where(w > 0, a, 0.0)
@@ -123,6 +124,7 @@ def pad(data: Dataset, n: int) -> Dataset:
         F=hold(data.F, 0.0),
         v=hold(data.v, 0.0),
         weights=hold(data.weights, 0.0),
+        load=hold(data.load, data.load[-1] if data.load is not None else 0.0),
     )
 
 
@@ -134,10 +136,15 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
     """
     n = max(d.t.shape[0] for d in datasets) if n is None else n
     any_v = any(d.v is not None for d in datasets)
+    with_load = [d.load is not None for d in datasets]
+    if any(with_load) and not all(with_load):
+        raise ValueError(f"datasets {[i for i, w in enumerate(with_load) if not w]} have no "
+                         "load signal and the others do: give all of them one, or none")
     padded = []
     for d in datasets:
         if any_v and d.v is None:
-            d = Dataset(t=d.t, x=d.x, F=d.F, v=velocity(d.t, d.x), weights=d.weights)
+            d = Dataset(t=d.t, x=d.x, F=d.F, v=velocity(d.t, d.x), weights=d.weights,
+                        load=d.load)
         padded.append(pad(d, n))
 
     def field(name):
@@ -149,4 +156,5 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
         F=field("F"),
         v=field("v") if any_v else None,
         weights=field("weights"),
+        load=field("load") if all(with_load) else None,
     )

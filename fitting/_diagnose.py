@@ -108,6 +108,9 @@ class Diagnosis:
     derivatives: dict | None = None
     #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
     warnings: dict = dataclasses.field(default_factory=dict)
+    #: The deadband (m or rad) the positions were played through before the diagnosis
+    #: (`jaxfric.motion.play`; the command line's ``--deadband``), or None.
+    deadband: float | None = None
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -133,6 +136,7 @@ class Diagnosis:
             "velocity": self.velocity,
             "derivatives": self.derivatives,
             "warnings": self.warnings,
+            **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
 
@@ -166,10 +170,11 @@ _PAIRS = 2
 
 
 def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=(),
-          restart=False):
+          restart=False, load=None):
     names = _params.leaf_names(_params.to_fit_representation(model))
     free = [n for n in names if n not in fixed] if fixed else None
-    res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps, free=free)
+    res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps, free=free,
+              load=load)
     # A refit with a new effect starts from the screen's values, often far from its
     # optimum; a warm restart (fresh damping) gets it unstuck more often than more steps.
     # Restart while the fit stops at its step limit and each restart still lowers the
@@ -179,7 +184,7 @@ def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=()
         if bool(res.converged):
             break
         again = fit(res.model, t, x, F, v, weights=train.astype(float), max_steps=max_steps,
-                    free=free)
+                    free=free, load=load)
         progress = float(again.rmse) < 0.99 * float(res.rmse)
         if float(again.rmse) <= float(res.rmse):
             res = again
@@ -216,10 +221,12 @@ class _Context:
     min_score: float
     min_t: float
     velocity: str  # how `v` was obtained, in words
+    load: np.ndarray | None = None  # the transmitted load (N or N m), if the data have one
 
     def step(self, model, added, restart=False):
         return _step(model, added, self.t, self.x, self.v, self.F, self.train, self.test,
-                     self.masks, self.log, self.max_steps, self.fixed, restart=restart)
+                     self.masks, self.log, self.max_steps, self.fixed, restart=restart,
+                     load=self.load)
 
 
 @dataclasses.dataclass
@@ -241,12 +248,12 @@ def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
         if name in state.added:
             continue
         c = _screen(name, state.current, ctx.t, ctx.x, ctx.v_arr, ctx.F, state.resid, J,
-                    ctx.train, ctx.test, ctx.min_score, ctx.min_t)
+                    ctx.train, ctx.test, ctx.min_score, ctx.min_t, load=ctx.load)
         if c is not None:
             ranking.append(c)
     ranking.sort(key=lambda c: c.score, reverse=True)
     _joint_check(ranking, state.current, ctx.t, ctx.x, ctx.v_arr, state.resid, J, ctx.train,
-                 ctx.test, ctx.min_score, ctx.min_t)
+                 ctx.test, ctx.min_score, ctx.min_t, load=ctx.load)
     for c in ranking[:3]:
         ctx.log(f"  {c.name}: score {c.score:.3f}, t {c.t_stat:.1f}"
                 + ("  (significant)" if c.significant else ""))
@@ -373,7 +380,8 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
     lower held-out error. ``(accepted, step, residual)`` or ``(None, None, None)``."""
     best_single = max((c.score for c in ranking), default=0.0)
     pairs = [p for p in _pair_screen(ranking, state.current, ctx.t, ctx.x, ctx.v_arr,
-                                     state.resid, J, ctx.train, ctx.test)[:_PAIRS]
+                                     state.resid, J, ctx.train, ctx.test,
+                                     load=ctx.load)[:_PAIRS]
              if p.score >= 4 * ctx.min_score and p.score >= best_single + ctx.min_score]
     tried = []
     for pair in pairs:
@@ -417,6 +425,7 @@ def diagnose(
     velocity_window: float | None = None,
     log: Callable[[str], None] | None = None,
     rotary: bool = False,
+    load=None,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
     ones one at a time with a joint refit after each (see the module docstring).
@@ -426,7 +435,9 @@ def diagnose(
     `rotary`: `x` is then an angle in rad). `fixed`: parameter names of `model` held at
     their values in every fit (e.g. ``("sigma2",)`` with ``sigma2 = 0`` for a model
     without viscous friction); the screening then does not let them absorb an effect
-    either. `max_steps`: per fit.
+    either. `max_steps`: per fit. `load`: the transmitted load (N, or N m on a rotary
+    axis; a file's ``load`` column): every fit and screen gets it, and the load-dependent
+    effects (`jaxfric.effects.LOAD_EFFECTS`) are screened only when it is given.
     `derivatives`: how the velocity is estimated from the position when `v` is not given
     (``"central"``, ``"savgol"`` or ``"backward"``, over `velocity_window` seconds; see
     `fitting._derivatives`): every fit and screen uses that velocity, and the effects'
@@ -438,9 +449,9 @@ def diagnose(
     """
     ctx = _context(model, t, x, F, v, blocks=blocks, max_steps=max_steps, fixed=fixed,
                    min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
-                   velocity_window=velocity_window)
+                   velocity_window=velocity_window, load=load)
     present = {e.name for e in getattr(ctx.model, "effects", ())}
-    names = effect_names(effects, present, rotary)
+    names = effect_names(effects, present, rotary, load is not None)
     ctx.log(f"fitting the baseline model on {int(ctx.train.sum())} of {ctx.t.size} samples "
             f"({int(ctx.test.sum())} held out in {blocks // 3} blocks) ...")
     baseline, resid = ctx.step(ctx.model, [], restart=True)
@@ -448,7 +459,7 @@ def diagnose(
                    best_holdout=baseline.rmse_holdout, added=[])
     steps, rankings = [], []
     while True:
-        J = _base_jacobian(state.current, ctx.t, ctx.x, ctx.v, ctx.fixed)
+        J = _base_jacobian(state.current, ctx.t, ctx.x, ctx.v, ctx.fixed, load=ctx.load)
         ranking = _rank(ctx, state, names, J)
         rankings.append(ranking)
         if len(state.added) >= max_added:
@@ -472,15 +483,21 @@ def diagnose(
                                                              "window_s": velocity_window})
 
 
-def effect_names(effects, present, rotary: bool) -> list[str]:
+def effect_names(effects, present, rotary: bool, has_load: bool = False) -> list[str]:
     """The effects a diagnosis screens: `effects` (default every effect, those of an angle,
-    `jaxfric.effects.ROTARY_EFFECTS`, only if `rotary`) not in `present`."""
-    default = [n for n in fx.EFFECTS if rotary or n not in fx.ROTARY_EFFECTS]
+    `jaxfric.effects.ROTARY_EFFECTS`, only if `rotary`, those of the load,
+    `jaxfric.effects.LOAD_EFFECTS`, only if `has_load`) not in `present`. A load effect
+    asked for without a load signal raises `ValueError`."""
+    default = [n for n in fx.EFFECTS if (rotary or n not in fx.ROTARY_EFFECTS)
+               and (has_load or n not in fx.LOAD_EFFECTS)]
+    if effects and not has_load and set(effects) & set(fx.LOAD_EFFECTS):
+        raise ValueError(f"effect(s) {sorted(set(effects) & set(fx.LOAD_EFFECTS))} need the "
+                         "load signal (a 'load' column, or diagnose(..., load=...))")
     return [n for n in (effects or default) if n not in present]
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,
-             derivatives, velocity_window) -> _Context:
+             derivatives, velocity_window, load=None) -> _Context:
     """Check the inputs and set a diagnosis up (see `diagnose`)."""
     fixed = tuple(fixed)
     # Work in the fit representation throughout (a `PaperShape` as a `NormalizedPaperShape`):
@@ -495,8 +512,12 @@ def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, l
     if v is None:
         v = estimate_velocity(t, x, derivatives, velocity_window)
     v = np.asarray(v, np.float64)
+    if load is not None:
+        load = np.asarray(load, np.float64)
+        if load.shape != t.shape:
+            raise ValueError(f"load has shape {load.shape}, t has {t.shape}")
     test, block = holdout_mask(t, blocks)
     return _Context(model=model, t=t, x=x, v=v, v_arr=v, F=F, train=~test, test=test,
                     block=block, masks=regimes(t, x, v), log=log or (lambda *_: None),
                     max_steps=max_steps, fixed=fixed, min_score=min_score, min_t=min_t,
-                    velocity=how)
+                    velocity=how, load=load)

@@ -108,7 +108,8 @@ def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
     with values that are not finite (a diverged fit) keeps the solve's prediction."""
     if not _finite(result.fit_model):
         return result
-    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v) for d in checked)
+    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v, load=d.load)
+                 for d in checked)
     resid = tuple(jnp.asarray(np.asarray(p) - np.asarray(d.F)) for p, d in zip(pred, checked))
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), result, (pred, resid))
 
@@ -164,6 +165,7 @@ def fit(
     gtol: float = Tolerances.gtol,
     setol: float = Tolerances.setol,
     progress=None,
+    load=None,
 ) -> FitResult:
     """Least-squares fit of any jaxfric model to one experiment.
 
@@ -194,11 +196,13 @@ def fit(
     - `reparameterize`: fit a `PaperShape` in `NormalizedPaperShape` coordinates (default;
       see `jaxfric.NormalizedPaperShape` for why); ``False`` fits ``a, b, c, alpha, beta,
       l1`` directly.
+    - `load`: the transmitted load (N, or N m), for a model with
+      `jaxfric.effects.LoadFriction` (``jaxfric.simulate(..., load=...)``).
 
     **Returns:** a `FitResult`. Failures to converge are reported in ``result``/``status``
     (``throw=False``); shape and value problems of the inputs raise `ValueError`.
     """
-    data = Dataset(t=t, x=x, F=F, v=v, weights=weights)
+    data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
                        max_steps=max_steps, reparameterize=reparameterize, ftol=ftol,
                        xtol=xtol, gtol=gtol, setol=setol, progress=progress)

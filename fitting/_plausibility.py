@@ -54,13 +54,15 @@ def steady_state(model, speeds, duration: float, samples: int = 2000,
                  at: float = 0.0) -> np.ndarray:
     """The force (N) `model` reaches after sliding at each of `speeds` (m/s, signed) for
     `duration` seconds from rest, arriving at position `at` (m; where position-dependent
-    effects are evaluated)."""
+    effects are evaluated), at zero transmitted load (`jaxfric.effects.LoadFriction`
+    adds nothing there)."""
     t = np.linspace(0.0, duration, samples)
     out = []
     for s in np.asarray(speeds, float):
         x = at + s * (t - duration)
         v = np.full_like(t, s)
-        out.append(float(np.asarray(jaxfric.simulate(model, t, x, v))[-1]))
+        out.append(float(np.asarray(jaxfric.simulate(model, t, x, v,
+                                                     load=np.zeros_like(t)))[-1]))
     return np.asarray(out)
 
 

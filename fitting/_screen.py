@@ -27,13 +27,13 @@ from ._candidates import (
 from ._evidence import evidence
 
 
-def _base_jacobian(model, t, x, v, fixed=()):
+def _base_jacobian(model, t, x, v, fixed=(), load=None):
     """d force / d (every parameter of `model` not in `fixed`, natural SI values), columns
     normalised."""
     p0 = _params.natural_vector(model)
 
     def force(p):
-        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v)
+        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v, load=load)
 
     J = np.asarray(jax.jacfwd(eqx.filter_jit(force))(p0))
     J = J[:, [n not in fixed for n in _params.natural_names(model)]]
@@ -42,13 +42,13 @@ def _base_jacobian(model, t, x, v, fixed=()):
     return J[:, norms > 0] / norms[norms > 0]
 
 
-def _base_signals(model, t, x, v):
+def _base_signals(model, t, x, v, load=None):
     """The signals effects are built from (`_signals`), at the force of `model` without
-    its added effects."""
+    its added effects; `load` (N) for the load-dependent effects."""
     base_model = model.without_effects()
     base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
     return _signals(t, x, v, base_force,
-                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)))
+                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)), load)
 
 
 def _unit_columns(B, train):
@@ -67,14 +67,15 @@ def _regress(resid, train, *blocks):
     return resid - A @ coef, coef
 
 
-def _normalised_columns(candidates, model, t, x, v, train):
+def _normalised_columns(candidates, model, t, x, v, train, load=None):
     """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
     the training samples: a list of ``(columns, scale)``."""
-    s = _base_signals(model, t, x, v)
+    s = _base_signals(model, t, x, v, load)
     return [_unit_columns(_columns(c.effect, s), train) for c in candidates]
 
 
-def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, min_t):
+def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, min_t,
+                 load=None):
     """Re-test the leading candidates together: with two effects hidden, each one's screen
     sees the other's residual as noise, which can make a real effect look inconsistent. The
     candidates with a score of at least `min_score` (at most three) are regressed jointly
@@ -84,7 +85,7 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, m
     lead = [c for c in candidates[:3] if c.score >= min_score]
     if len(lead) < 2:
         return
-    cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train)]
+    cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train, load)]
 
     full, _ = _regress(resid, train, J, *cols)
     for i, c in enumerate(lead):
@@ -110,7 +111,8 @@ class _Pair:
     effects: tuple[fx.AbstractEffect, fx.AbstractEffect]
 
 
-def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pair]:
+def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
+                 ) -> list[_Pair]:
     """Every pair of screened candidates regressed together with the model's Jacobian (the
     single screens' Gauss-Newton step with two effects), best pair first. Two missing
     effects whose terms are partly alike (an asymmetry and a position dependence along
@@ -119,7 +121,7 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pai
     than either."""
     if len(candidates) < 2:
         return []
-    cols = _normalised_columns(candidates, model, t, x, v, train)
+    cols = _normalised_columns(candidates, model, t, x, v, train, load)
 
     def solve(used):
         new, coef = _regress(resid, train, J, *(cols[i][0] for i in used))
@@ -146,8 +148,8 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test) -> list[_Pai
     return pairs
 
 
-def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t):
-    s = _base_signals(model, t, x, v)
+def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t, load=None):
+    s = _base_signals(model, t, x, v, load)
     best = None
     base_test = resid[test]
     # The model's own parameters alone (one Gauss-Newton step): the reference.

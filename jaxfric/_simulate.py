@@ -55,8 +55,8 @@ def _check_values(name: str, a) -> None:
 
 
 @eqx.filter_jit
-def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None) -> SimResult:
-    return model._simulate(make_motion(t, x, v, max_reversals))
+def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None) -> SimResult:
+    return model._simulate(make_motion(t, x, v, max_reversals, load))
 
 
 def _uses_reversal_bound(model) -> bool:
@@ -95,6 +95,18 @@ def _checked_motion(t, x, v):
             i = int(np.argmax(dt <= 0)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     return t, x, v
+
+
+def _checked_load(load, t):
+    """`load` as a 1-D float array of `t`'s shape and dtype, finite where concrete; None
+    stays None."""
+    if load is None:
+        return None
+    load = _as_1d("load", load)
+    if load.shape != t.shape:
+        raise ValueError(f"t and load must have the same shape, got {t.shape} and {load.shape}")
+    _check_values("load", load)
+    return load.astype(t.dtype)
 
 
 def apply_deadband(x, v, deadband):
@@ -139,6 +151,7 @@ def simulate(
     full_output: bool = False,
     max_reversals: int | None = None,
     deadband: float | str | None = None,
+    load: ArrayLike | None = None,
 ):
     """Friction force of `model` along a motion.
 
@@ -164,6 +177,9 @@ def simulate(
       (`jaxfric.motion.play`, docs/algorithm.md section 1): the models see the played
       position, and a given `v` is 0 where it does not move. ``"auto"``: estimated from
       `x` (`jaxfric.motion.estimate_deadband`; concrete data only). ``None`` or 0: none.
+    - `load`: the transmitted load, N (N m on a rotary axis), same shape as `t`: the
+      signal `jaxfric.effects.LoadFriction` reads (a file's ``load`` column). A model with
+      that effect raises `ValueError` without it; other models ignore it.
 
     **Returns:** the friction force, N, one per sample (or a `SimResult`).
 
@@ -172,10 +188,11 @@ def simulate(
     `StackOverflowWarning` when memory entries had to be dropped (only outside traced code).
     """
     t, x, v = _checked_motion(t, x, v)
+    load = _checked_load(load, t)
     x, v = apply_deadband(x, v, deadband)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
-    result = _run(model, t, x, v, max_reversals)
+    result = _run(model, t, x, v, max_reversals, load)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "

@@ -2,7 +2,9 @@
 
 A measurement has columns ``t`` (time), ``x`` (position or angle) and either ``F`` (the
 friction force or torque) or ``u`` (the drive force or torque, which also contains inertia
-and offsets); optionally ``v`` (velocity), ``a`` (acceleration) and ``normal`` (normal load).
+and offsets); optionally ``v`` (velocity), ``a`` (acceleration), ``normal`` (normal load)
+and ``load`` (the transmitted load: N, or N m on a rotary file; for
+`jaxfric.effects.LoadFriction`).
 Any other numeric column is kept in `Measurement.extra`; a text column is ignored with a note.
 
 **Units.** SI by default: s, m, m/s, m/s^2, N for a linear file; s, rad, rad/s, rad/s^2,
@@ -59,7 +61,8 @@ MIN_SAMPLES = 10
 #: Travel (m) beyond which an undeclared position unit is taken for a mistake.
 MAX_UNDECLARED_SPAN_M = 2.0
 # Beyond these a value is not a friction measurement in SI, whatever the machine.
-ABSURD = {"t": 1e7, "x": 1e3, "v": 1e3, "a": 1e6, "F": 1e7, "u": 1e7, "normal": 1e8}
+ABSURD = {"t": 1e7, "x": 1e3, "v": 1e3, "a": 1e6, "F": 1e7, "u": 1e7, "normal": 1e8,
+          "load": 1e8}
 #: The same for a rotary file (rad, rad/s, rad/s^2, N m): a motor axis turns many times.
 ABSURD_ROTARY = {**ABSURD, "x": 1e6, "v": 1e4, "a": 1e7}
 _STANDARD = frozenset(QUANTITY)
@@ -76,7 +79,8 @@ class Measurement(eqx.Module):
     - `v` (m/s, or rad/s): velocity, or ``None`` (then derived from `x`, see `velocity`).
     - `weights`: per-sample weights >= 0 for a fit (0 drops a sample), or ``None`` (ones).
     - `u` (N, or N m): drive force (friction plus inertia and offsets), or ``None``; `a`
-      (m/s^2, or rad/s^2) and `normal` (N): ``None`` unless given.
+      (m/s^2, or rad/s^2), `normal` (N) and `load` (the transmitted load: N, or N m on a
+      rotary file; what `jaxfric.effects.LoadFriction` reads): ``None`` unless given.
     - `source`: where it came from (file name or ``"<arrays>"``); `notes`: what was
       converted or flipped while loading; `extra`: other columns by name.
     - `kind`: ``"linear"`` (a slide) or ``"rotary"`` (a joint or motor axis), from the
@@ -91,6 +95,7 @@ class Measurement(eqx.Module):
     u: Any = None
     a: Any = None
     normal: Any = None
+    load: Any = None
     source: str = eqx.field(static=True, default="<arrays>")
     notes: tuple[str, ...] = eqx.field(static=True, default=(), converter=tuple)
     extra: dict = eqx.field(default_factory=dict)
@@ -122,7 +127,8 @@ class Measurement(eqx.Module):
         return velocity(self.t, self.x, window_s)
 
     def __repr__(self) -> str:
-        cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal") if getattr(self, c) is not None]
+        cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal", "load")
+                if getattr(self, c) is not None]
         span = self.t[-1] - self.t[0]
         return (f"Measurement({self.source!r}, {self.kind}, {len(self)} samples, {span:.3g} s, "
                 f"columns {cols})")
@@ -348,7 +354,7 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
     _check(source, columns, require_force, kind, where)
     m = Measurement(
-        **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal")},
+        **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal", "load")},
         source=source,
         extra={k: v for k, v in columns.items() if k not in QUANTITY},
         notes=notes,

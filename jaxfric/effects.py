@@ -22,11 +22,13 @@ Memoryless effects:
 | `drift` | ``F_base * drift_rate * (t - t_0)`` | drift_rate 1/s |
 | `ripple` | ``sum_k rip_sin_k sin(2 pi k x/P) + rip_cos_k cos(...)`` | rip_sin, rip_cos N, P m |
 | `angle_load` | ``g_sin sin(x) + g_cos cos(x)`` (x an angle, rad) | g_sin N, g_cos N |
+| `load_friction` | ``k_load * abs(L) * clip(F_base / abs(s(v)), -1, 1)`` | k_load (1) |
 
 ``a`` is the backward difference of ``v`` (the same in `simulate` and `step`), ``u`` the
 position normalised to [-1, 1] over the travel given at construction, ``t_0`` the first
-sample time. Parameter names are distinct from every model's, so fitted results keep them
-apart.
+sample time, ``L`` the transmitted load (N, or N m on a rotary axis: the ``load`` column
+of a file, ``simulate(..., load=...)``). Parameter names are distinct from every model's,
+so fitted results keep them apart.
 
 Stateful effects: `presliding` (an elasto-plastic element, ``F_pre`` N and ``k_pre`` N/m,
 replacing the Coulomb jump at reversals by a spring) and `friction_lag` (the force follows
@@ -52,7 +54,8 @@ class Signals(eqx.Module):
     """What an effect sees per sample: ``t`` (s), ``x`` (m), ``v`` (m/s), ``a`` (m/s^2),
     ``dt`` (s) and ``dx`` (m) since the previous sample (0 at the first), ``t0`` (first
     sample time, s), ``base`` (the base model's force, N) and ``static`` (its Stribeck curve
-    ``s(v)`` without the viscous term, N; the base force for a model without one)."""
+    ``s(v)`` without the viscous term, N; the base force for a model without one);
+    ``load`` (the transmitted load, N or N m, or ``None`` when none was given)."""
 
     t: Array
     x: Array
@@ -63,6 +66,7 @@ class Signals(eqx.Module):
     t0: Array
     base: Array
     static: Array
+    load: Array | None = None
 
 
 class AbstractEffect(eqx.Module):
@@ -294,6 +298,43 @@ class AngleLoad(AbstractEffect):
                 f"(amplitude {amp:.4g} N, its maximum at q = {-phi:.4g} deg)")
 
 
+class LoadFriction(AbstractEffect):
+    """Friction that grows with the transmitted load: ``k_load * |L| * clip(F_base /
+    |s(v)|, -1, 1)``, ``L`` the load signal (a file's ``load`` column: a normal force in
+    N, or a joint's load or motor torque in N m) and `k_load` dimensionless (load in the
+    unit of the friction force: N per N, N m per N m).
+
+    Why this form: Coulomb friction is proportional to the normal force, and in a gear
+    (harmonic drive, worm or planetary) the tooth and bearing normal forces grow with the
+    transmitted torque, so the Coulomb level of a robot joint grows about linearly with
+    ``|load torque|`` (Bittencourt, Wernholt, Sander-Tavallaey and Brogardh, "An extended
+    friction model to capture load and temperature effects in robot joints", IROS 2010;
+    Hamon, Gautier and Garrec, "Dynamic identification of robots with a dry friction model
+    depending on load and velocity", IROS 2010: ``tau_f = (Fc + k |tau_load|) sign(qd) +
+    Fv qd``). The sign of the load does not matter, only its size, hence ``|L|``.
+    The direction factor is the base model's force over its Stribeck level, clipped to
+    [-1, 1]: ``sign(v)`` while sliding, as in those papers, and for a model with presliding
+    memory (two-state, GMS, LuGre) the fraction of the level it has reached since the last
+    reversal, so the extra friction follows the same hysteresis instead of adding a jump
+    at every reversal; at rest it holds. A model simulated without a load signal raises
+    `ValueError` (`jaxfric.simulate(..., load=...)`)."""
+
+    name: ClassVar[str] = "load_friction"
+    k_load: Array = param("-", default=0.0)
+
+    def term(self, s):
+        if s.load is None:
+            raise ValueError(
+                "the load_friction effect needs the load signal: pass "
+                "jaxfric.simulate(..., load=L) (a file's 'load' column, N or N m)")
+        direction = jnp.clip(safe_div(s.base, jnp.abs(s.static)), -1.0, 1.0)
+        return self.k_load * jnp.abs(s.load) * direction
+
+    def describe(self):
+        return (f"load-dependent friction: {100 * float(self.k_load):+.3g} % of the "
+                "transmitted load |load| added to the friction level")
+
+
 class Drift(AbstractEffect):
     """``F_base * drift_rate * (t - t0) * phi(drift_decay * (t - t0))`` with
     ``phi(u) = (1 - exp(-u)) / u`` (``phi(0) = 1``): the friction level changing slowly over
@@ -405,12 +446,16 @@ class FrictionLag(AbstractEffect):
 EFFECTS: dict[str, type[AbstractEffect]] = {
     cls.name: cls
     for cls in (Viscous, QuadraticDrag, StribeckHump, Presliding, FrictionLag, Inertia, Offset,
-                Asymmetry, Cogging, PositionDependence, PositionLoad, Drift, Ripple, AngleLoad)
+                Asymmetry, Cogging, PositionDependence, PositionLoad, Drift, Ripple, AngleLoad,
+                LoadFriction)
 }
 
 #: Effects of an angle (rad) that a diagnosis screens on rotary data only: a period that
 #: divides a revolution and ``sin(q)``, ``cos(q)`` mean nothing on a travel in metres.
 ROTARY_EFFECTS: tuple[str, ...] = ("ripple", "angle_load")
+
+#: Effects that read the load signal: a diagnosis screens them only when the data have one.
+LOAD_EFFECTS: tuple[str, ...] = ("load_friction",)
 
 
 def static_force(model, v: Array, force: Array) -> Array:
@@ -453,8 +498,8 @@ class WithEffects(AbstractFrictionModel):
         r = self.base._simulate(motion)
         a = _acceleration(motion.v, motion.dt)
         s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
-                    t0=motion.t[0], base=r.force, static=static_force(self.base, motion.v,
-                                                                      r.force))
+                    t0=motion.t[0], base=r.force,
+                    static=static_force(self.base, motion.v, r.force), load=motion.load)
         terms = {e.name: e.term(s) for e in self.effects}
         force = r.force + sum(terms.values())
         return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
@@ -467,13 +512,16 @@ class WithEffects(AbstractFrictionModel):
         return WithEffectsState(base=base, effects=tuple(e.init_state(x0) for e in self.effects),
                                 x_prev=x0, v_prev=zero, t=zero)
 
-    def step(self, state: WithEffectsState, x, v, dt):
+    def step(self, state: WithEffectsState, x, v, dt, load=None):
+        """One sample, as the base model's `step`; `load` (N or N m) for the effects
+        that read it (`LoadFriction`)."""
         base_state, f = self.base.step(state.base, x, v, dt)
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         t = state.t + dt
         s = Signals(t=t, x=x, v=v, a=safe_div(v - state.v_prev, dt), dt=dt,
                     dx=x - state.x_prev, t0=jnp.zeros_like(t), base=f,
-                    static=static_force(self.base, v, f))
+                    static=static_force(self.base, v, f),
+                    load=None if load is None else jnp.asarray(load))
         new, total = [], f
         for e, st in zip(self.effects, state.effects):
             st, term = e.step_term(st, s)

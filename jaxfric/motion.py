@@ -32,6 +32,8 @@ class Motion(eqx.Module):
     - `last_d`: direction of the last moving sample at or before ``n`` (0 before any motion).
     - `prev_last_d`: the same at ``n - 1`` (0 at ``n = 0``).
     - `x_prev`: ``x_{n-1}`` (``x_0`` at ``n = 0``): the reversal point when one happens at n.
+    - `load`: the transmitted load (N, or N m on a rotary axis) that load-dependent
+      effects (`jaxfric.effects.LoadFriction`) read, or ``None`` when none was given.
     - `max_reversals`: a static upper bound on the number of reversals (`reversal` true),
       or ``None`` (up to ``n``). `TwoState` evaluates its reversal terms on a list of this
       size rather than on every sample; `reversal_bound` computes one from concrete data.
@@ -46,6 +48,7 @@ class Motion(eqx.Module):
     last_d: Float[Array, " n"]
     prev_last_d: Float[Array, " n"]
     x_prev: Float[Array, " n"]
+    load: Float[Array, " n"] | None = None
     max_reversals: int | None = eqx.field(static=True, default=None)
 
     @property
@@ -61,7 +64,7 @@ class Motion(eqx.Module):
         """This motion with `v` replaced by `consistent_velocity` (and the directions
         re-derived): what the models with a memory in position (`TwoState`, `GMS`) use."""
         v = consistent_velocity(self.v, self.dx, self.dt)
-        return make_motion(self.t, self.x, v, self.max_reversals)
+        return make_motion(self.t, self.x, v, self.max_reversals, self.load)
 
 
 def consistent_velocity(v: Array, dx: Array, dt: Array) -> Array:
@@ -214,8 +217,9 @@ def reversal_bound(t, x, v=None) -> int:
 
 
 def make_motion(t: Array, x: Array, v: Array | None = None,
-                max_reversals: int | None = None) -> Motion:
-    """Build a `Motion` from 1-D arrays of equal length (shape checks are the caller's)."""
+                max_reversals: int | None = None, load: Array | None = None) -> Motion:
+    """Build a `Motion` from 1-D arrays of equal length (shape checks are the caller's);
+    `load` (N or N m) is carried for the load-dependent effects."""
     if v is None:
         v = backward_velocity(t, x)
     d = jnp.sign(v)
@@ -236,5 +240,6 @@ def make_motion(t: Array, x: Array, v: Array | None = None,
         last_d=last_d,
         prev_last_d=prev_last_d,
         x_prev=x_prev,
+        load=load,
         max_reversals=max_reversals,
     )

@@ -13,7 +13,10 @@ tests from other truths.
   there with formulas written here (`hidden_force`), not with `jaxfric.effects`;
 - **sensors** (`measurement`): the position is sampled and quantised to a 0.05 um encoder,
   the force gets white noise; the file holds t, x, F only, so whoever fits it has to
-  derive the velocity.
+  derive the velocity;
+- **a load** (`load_signal`): a transmitted load (N) that varies independently of the
+  motion, for the hidden load-dependent friction (`HIDDEN_LOAD`; `measurement` with
+  ``load=True`` also returns the sampled load, with its own sensor noise).
 """
 
 import numpy as np
@@ -29,6 +32,18 @@ HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset"
 HIDDEN_ROTARY = ("ripple", "angle_load")
 ROTARY_SCALE = 300.0  # rad per m: the rotary files' angle is the linear motion times this
 GEAR = 50  # the ripple's count per revolution (a gear of ratio 50 seen on the output)
+#: Hidden effects of the transmitted load: for files with a load column (`load_signal`).
+HIDDEN_LOAD = ("load_friction",)
+LOAD_NOISE = 0.2  # N: white noise of the recorded load
+
+
+def load_signal(t):
+    """The transmitted load (N) at times `t` (s): 5..95 N, two swings of 3.1 s and 1.3 s
+    that share no period with the motion (a payload and a process force), always pushing
+    one way: faster than the diagnosis's held-out blocks, so every block sees it vary."""
+    t = np.asarray(t, dtype=np.float64)
+    return (50.0 + 30.0 * np.sin(2 * np.pi * t / 3.1 + 0.4)
+            + 15.0 * np.sin(2 * np.pi * t / 1.3 + 1.3))
 
 
 def truth(name: str):
@@ -73,10 +88,18 @@ def _joint_force(name: str, q, dq):
     return 1.4 * np.cos(q + 0.7) + 0.03 * 1.4 * dq
 
 
+def _load_force(t, v):
+    """The hidden load friction: the Coulomb level grows by 3 % of ``|load|``, with
+    ``sign(v)`` (Hamon et al.'s static form: a jump at each reversal, where jaxfric's
+    effect follows the base model's presliding)."""
+    return 0.03 * np.abs(load_signal(t)) * np.sign(v)
+
+
 def hidden_force(name: str, t, x, v, a, base, level, static=None):
     """The hidden effect's force (N) on the fine grid; `level` is the sliding friction
     level (N) of the truth, `base` its force, `static` its Stribeck level ``|s(v)|`` (N;
-    ``Fs`` at rest)."""
+    ``Fs`` at rest). (``load_friction``, of the load rather than the motion:
+    `_load_force`.)"""
     travel_mid, travel_half = 0.5 * (x.min() + x.max()), 0.5 * np.ptp(x)
     if name in HIDDEN_ROTARY:
         return _joint_force(name, x, x - travel_mid)
@@ -128,7 +151,7 @@ def finite_acceleration(t, x, ramp: float):
 
 
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
-                dt: float = 1e-2, seed: int = 0, rotary: bool = False):
+                dt: float = 1e-2, seed: int = 0, rotary: bool = False, load: bool = False):
     """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
     `seed` through truth `truth_name` plus the `hidden` effects, sampled every `dt`, the
     position quantised to `ENCODER`, the force with `noise` N of white noise.
@@ -137,7 +160,10 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     (a 10 mm travel becomes 3.2 rad, the encoder 15 urad, about 2^18.7 counts per turn),
     the truth's friction is the same function of the motion (its speeds and presliding
     lengths scale with the angle), and the hidden effects (`HIDDEN_ROTARY` among them) are
-    functions of the angle."""
+    functions of the angle.
+
+    `load`: return ``(t, x, F, L)`` with the transmitted load `L` (`load_signal`, N or N m,
+    with `LOAD_NOISE` of white noise) that the hidden ``load_friction`` reads."""
     from . import simulate
     from .examples import diagnosis_motion
 
@@ -150,11 +176,14 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
     static = np.asarray(model.stribeck.magnitude(v))  # |s(v)|, Fs at rest (s(0) is 0)
     k = ROTARY_SCALE if rotary else 1.0
-    force = base + sum((hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
+    force = base + sum((_load_force(t_fine, v) if h in HIDDEN_LOAD else
+                        hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
                         for h in hidden), np.zeros_like(base))
     keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
     t = t_fine[keep]
     x = np.round(x_fine[keep] / ENCODER) * ENCODER * k
     F = force[keep] + noise * rng.standard_normal(t.size)
+    if load:
+        return t, x, F, load_signal(t) + LOAD_NOISE * rng.standard_normal(t.size)
     return t, x, F

@@ -43,12 +43,14 @@ UNITS: dict[str, dict[str, float]] = {
     "torque": {"Nm": 1.0, "mNm": 1e-3, "kNm": 1e3, "Nmm": 1e-3},
 }
 
-#: Column -> quantity, per kind. ``normal`` (a normal load) is a force in both.
+#: Column -> quantity, per kind. ``normal`` (a normal load) is a force in both; ``load``
+#: (the transmitted load that `jaxfric.effects.LoadFriction` reads) is in the unit of the
+#: friction: a force on a linear file, a torque on a rotary one.
 QUANTITY: dict[str, dict[str, str]] = {
     LINEAR: {"t": "time", "x": "length", "v": "velocity", "a": "acceleration",
-             "F": "force", "u": "force", "normal": "force"},
+             "F": "force", "u": "force", "normal": "force", "load": "force"},
     ROTARY: {"t": "time", "x": "angle", "v": "angular velocity", "a": "angular acceleration",
-             "F": "torque", "u": "torque", "normal": "force"},
+             "F": "torque", "u": "torque", "normal": "force", "load": "torque"},
 }
 SI_UNIT = {"time": "s", "length": "m", "velocity": "m/s", "acceleration": "m/s^2",
            "force": "N", "angle": "rad", "angular velocity": "rad/s",

@@ -26,6 +26,7 @@ from ._io import (
     result_json,
 )
 from ._output import atomic_file, write_json
+from ._signals import _deadband_option, _load_json, _load_of, played_measurement
 from .plots import plot_fit
 
 
@@ -96,6 +97,7 @@ def run_fit(args) -> int:
     res = fit_measurement(args, kind, m, log)
     if args.json:
         extra = {} if deadband is None else {"deadband": deadband}
+        extra.update(_load_json(m))
         write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
                                "derivatives": derivatives_json(m, args), **extra})
         log(f"JSON written to {args.json}")
@@ -126,7 +128,8 @@ def fit_measurement(args, kind: str, m, log):
     # The residuals are in units of the force's standard deviation (`fitting._problem`).
     scale = float(np.std(m.F)) / np.sqrt(m.F.size) or 1.0
     res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
-               progress=_progress(log, scale, m.unit("F")) if watched else None)
+               progress=_progress(log, scale, m.unit("F")) if watched else None,
+               load=_load_of(m, start))
     elapsed = time.perf_counter() - t0
     log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
         f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
@@ -148,7 +151,7 @@ def run_diagnose(args) -> int:
     m = load_for_cli(args, log)
     d = diagnose_measurement(args, kind, m, log, args.report)
     if args.json:
-        write_json(args.json, diagnosis_json(d, m.kind))
+        write_json(args.json, {**diagnosis_json(d, m.kind), **_load_json(m)})
         log(f"JSON written to {args.json}")
     return 0
 
@@ -161,6 +164,7 @@ def diagnose_measurement(args, kind: str, m, log, report):
     if m.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
         plain = log
         log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     force, column = m.force, m.force_column
     if column == "u":
         log("note: the file has the drive force u (not F): the model starts as friction only; "
@@ -174,9 +178,11 @@ def diagnose_measurement(args, kind: str, m, log, report):
     v, how = identification_velocity(m, args, log)
     start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
+    if m.load is not None:
+        log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
-                 log=log, rotary=m.kind == _units.ROTARY)
-    d.velocity, d.derivatives = how, derivatives_json(m, args)
+                 log=log, rotary=m.kind == _units.ROTARY, load=m.load)
+    d.velocity, d.derivatives, d.deadband = how, derivatives_json(m, args), deadband
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:
         from types import SimpleNamespace
@@ -294,7 +300,7 @@ def run_simulate(args) -> int:
     m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, _ = identification_velocity(m, args, log)
     model = _with_stack_size(model, args.stack_size)
-    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True)
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, load=_load_of(m, model))
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
@@ -329,44 +335,6 @@ def _with_stack_size(model, stack_size):
     return dataclasses.replace(model, stack_size=stack_size)
 
 
-def played_measurement(m, deadband, log):
-    """``(m, b)``: `m` with its positions through the play of half-width ``b`` (SI;
-    `jaxfric.motion.play`; ``deadband``: a number, 'auto' to estimate it, or None for
-    none, then ``b`` is None). Fit and simulate use the same, so that ``simulate --params``
-    reproduces the fit."""
-    if deadband is None:
-        return m, None
-    import equinox as eqx
-
-    from jaxfric.motion import estimate_deadband, play
-
-    b = estimate_deadband(m.x) if deadband == "auto" else float(deadband)
-    log(f"deadband: {b:.4g} {m.unit('x')} (play on the position against noisy standstill)")
-    if b == 0:
-        return m, b
-    return eqx.tree_at(lambda mm: mm.x, m, np.asarray(play(np.asarray(m.x), b))), b
-
-
-def _deadband_option(text, params):
-    """The `jaxfric.simulate` deadband from ``--deadband`` (a number in SI, 'auto',
-    'none'), else from the ``deadband`` saved in the `params` JSON, else None."""
-    if text is None and params:
-        with open(params) as f:
-            text = json.load(f).get("deadband")
-    if text is None or str(text).lower() == "none":
-        return None
-    if str(text).lower() == "auto":
-        return "auto"
-    try:
-        value = float(text)
-    except ValueError:
-        raise _data.DataError(
-            f"--deadband must be a number, 'auto' or 'none', got {text!r}") from None
-    if not value >= 0:
-        raise _data.DataError(f"--deadband must be >= 0, got {value}")
-    return value
-
-
 def run_compare(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kinds = [MODEL_NAMES.get(k.strip()) for k in args.models.split(",")]
@@ -392,6 +360,8 @@ def compare_measurement(args, kinds, m, log) -> dict:
 
     if m.F is None:
         raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
+    m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
+    extra = {} if deadband is None else {"deadband": deadband}
     v, _ = identification_velocity(m, args, log)
     masks = regimes(m.t, m.x, v)
     rows, results = {}, {}
@@ -401,7 +371,7 @@ def compare_measurement(args, kinds, m, log) -> dict:
         res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps)
         errs = regime_errors(np.asarray(res.residuals), masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
-        results[kind] = {**result_json(kind, res, m), "regimes": errs}
+        results[kind] = {**result_json(kind, res, m), "regimes": errs, **extra}
     names = list(next(iter(rows.values())))
     log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file):")
     log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))

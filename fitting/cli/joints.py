@@ -61,19 +61,22 @@ def summary_table(results: dict, joints: dict) -> str:
 
 def fit_joints(args, kind: str, log, fit_measurement) -> int:
     """`fit_measurement` (`fitting.cli.commands`) on each joint, then the joints' table."""
+    from ._signals import _deadband_option, played_measurement
     from .plots import plot_fit
 
     joints = load_joints_for_cli(args, log)
-    results = {}
+    results, deadbands = {}, {}
     for name, m in joints.items():
         log(f"\n=== {name} ===")
-        results[name] = fit_measurement(args, kind, m, log)
+        played, b = played_measurement(m, _deadband_option(args.deadband, None), log)
+        deadbands[name] = {} if b is None else {"deadband": b}
+        results[name] = fit_measurement(args, kind, played, log)
     log(f"\n{kind} per joint:\n{summary_table(results, joints)}")
     if args.json:
         first = next(iter(joints.values()))
         write_json(args.json, {"file": str(args.file), "kind": first.kind,
-                               "joints": {n: result_json(kind, results[n], joints[n])
-                                          for n in joints}})
+                               "joints": {n: {**result_json(kind, results[n], joints[n]),
+                                              **deadbands[n]} for n in joints}})
         log(f"JSON written to {args.json}")
     if args.plot:
         for name, m in joints.items():
@@ -153,10 +156,28 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
     return out
 
 
+def _joint_deadband(args, name: str):
+    """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
+    a several-joint ``--params`` (or at the top of a one-model ``--params``), else None."""
+    from ._signals import _deadband_option
+
+    if args.deadband is None and args.params:
+        try:
+            spec = json.loads(Path(args.params).read_text())
+        except (OSError, ValueError):
+            spec = None
+        entry = spec.get("joints", {}).get(name) if isinstance(spec, dict) else None
+        if isinstance(entry, dict):
+            return _deadband_option(entry.get("deadband"), None)
+    return _deadband_option(args.deadband, args.params)
+
+
 def simulate_joints(args, kind: str, log, model_from_json) -> int:
     """Each joint's model along its motion; one CSV: ``t``, then per joint i ``x{i}``,
     ``v{i}``, ``F_model{i}`` (and the measured ``F{i}``), in the file's units."""
     import jaxfric
+
+    from ._signals import _load_of, played_measurement
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
@@ -166,7 +187,9 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
     for name, m in joints.items():
         model, what = models[name]
         log(f"{name}: {what}")
-        out = jaxfric.simulate(model, m.t, m.x, m.v, full_output=True)
+        m, _ = played_measurement(m, _joint_deadband(args, name), log)
+        out = jaxfric.simulate(model, m.t, m.x, m.v, full_output=True,
+                               load=_load_of(m, model))
         force, i = np.asarray(out.force), name.split()[-1]
         cols[f"x{i}[{m.unit('x')}]"] = m.x
         cols[f"v{i}[{m.unit('v')}]"] = m.velocity()

@@ -43,7 +43,7 @@ FIT_HELP = """\
 Fit one friction model to a measurement and print its parameters with units and standard
 errors (SI: s, m, m/s, N).
 
-FILE is a CSV (header row: t, x, F; optional v, normal; units in brackets such as x[mm],
+FILE is a CSV (header row: t, x, F; optional v, normal, load; units in brackets such as x[mm],
 F[mN]) or an NPZ with those arrays. F is the friction force with the sign of the velocity;
 if the file uses the opposite sign you will be warned, and --flip-force corrects it.
 The starting values are estimated from the data; all parameters are fitted jointly.
@@ -229,6 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
+    _add_deadband_option(p, "none; the value used is saved in --json")
     _add_derivative_options(p)
     p.set_defaults(func=_compare)
 
@@ -245,6 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
+    _add_deadband_option(p, "none; the value used is saved in --json")
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 

@@ -2,7 +2,9 @@
 `Part` whose step statements add the effect's term to ``total``. In scope: ``t`` (s),
 ``x`` (m), ``v`` (m/s), ``dt`` (s), ``dx`` (m), ``a`` (m/s^2, the backward difference of
 ``v``, 0 at the first sample), ``f`` (the base model's force, N) and ``stat`` (its Stribeck
-curve ``s(v)``, N). Effects without a translation are refused by name."""
+curve ``s(v)``, N). Effects without a translation are refused by name; so are the effects
+that read the load signal (`jaxfric.effects.LOAD_EFFECTS`), as the exported step takes
+``(t, x, v)`` only."""
 
 import numpy as np
 
@@ -133,6 +135,13 @@ EXPORTABLE = tuple(sorted(cls.name for cls in _TRANSLATORS))
 def effect_part(effect) -> Part:
     """The `Part` adding `effect`'s term to ``total``; `ExportError` if it has none."""
     translate = _TRANSLATORS.get(type(effect))
+    if getattr(effect, "name", None) in fx.LOAD_EFFECTS:
+        raise ExportError(f"the effect '{effect.name}' ({type(effect).__name__}) cannot be "
+                          "exported to C: it reads the transmitted load, and the exported "
+                          "jaxfric_step(s, t, x, v) has no load input; add the term "
+                          f"k_load * |load| * clip(f / |s(v)|, -1, 1) (k_load = "
+                          f"{float(effect.k_load):.6g}) in your own code, or export the model "
+                          "without it")
     if translate is None:
         name = getattr(effect, "name", type(effect).__name__)
         raise ExportError(f"the effect '{name}' ({type(effect).__name__}) cannot be exported "
