@@ -104,3 +104,20 @@ def test_chunk_budget_follows_the_time_per_step():
     assert _chunked._next_budget(10, 256, 0.5) == _chunked.MIN_CHUNK  # slow: the least
     assert _chunked._next_budget(10, 256, 0.1) == 10  # about one second of work
     assert _chunked._next_budget(250, 256, 1e-4) == 6  # never past max_steps
+
+
+def test_the_step_left_in_standard_errors_stops_a_creeping_fit(problem):
+    """With every other rule off (the solver's own test too), the fit stops because the
+    Gauss-Newton step left is under `setol` standard errors, at the noise floor; with that
+    rule off as well it runs to max_steps."""
+    import optimistix as optx
+
+    t, x, F, start = problem
+    never = optx.LevenbergMarquardt(rtol=0.0, atol=0.0)
+    res = fitting.fit(start, t, x, F, solver=never, ftol=0.0, xtol=0.0, gtol=0.0,
+                      max_steps=200)
+    assert bool(res.converged) and "standard errors" in res.stopped, res.stopped
+    assert int(res.num_steps) < 200 and float(res.rmse) < 1.02 * NOISE
+    off = fitting.fit(start, t, x, F, solver=never, ftol=0.0, xtol=0.0, gtol=0.0, setol=0.0,
+                      max_steps=60)
+    assert "max_steps" in off.stopped or "stuck" in off.stopped, off.stopped
