@@ -267,7 +267,11 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
     while steps < max_steps:
         budget = _next_budget(steps, max_steps, per_step)
         tick = time.perf_counter()
-        inv_d = jnp.asarray(1.0 / np.where(d > 0, d, 1.0))
+        # Columns far weaker than the strongest are scaled as if 1e-3 of it: a nearly flat
+        # column (a parameter saturating its bounded transform) would otherwise get steps so
+        # long that they push it further into its bound.
+        floor = 1e-3 * d.max() if d.max() > 0 else 0.0
+        inv_d = jnp.asarray(1.0 / np.where(d > 0, np.maximum(d, floor), 1.0))
         out = _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
                      step_size)
         taken = int(out.num_steps)

@@ -49,7 +49,8 @@ def test_batch_with_zero_steps_is_not_success(tustin_data):
 def test_batch_marks_a_non_finite_cost_per_dataset(tustin_data):
     forces = np.array(tustin_data[2])
     forces[1, 100] = 1e300  # squared, the cost overflows to inf
-    res = _batch(tustin_data, forces)
+    with pytest.warns(jaxfric.data.DataWarning, match=r"dataset 1: F\[100\]"):
+        res = _batch(tustin_data, forces)  # named, and that dataset fails alone
     status = res.status
     assert status[0] == status[2] == "successful", status
     assert status[1] != "successful" and not bool(res.converged[1])

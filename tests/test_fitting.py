@@ -249,7 +249,9 @@ def test_batch_matches_one_by_one_and_isolates_a_bad_dataset():
     good = [i for i in range(33) if i != 7]
     assert all(status[i] == "successful" for i in good)
     for i in good:
-        one = fitting.fit(start, t, x, forces[i], free=free)
+        # The batch's one compiled loop stops on the solver's own test only; the single fit
+        # is run with the same rule (setol = 0: no stop at a tenth of a standard error).
+        one = fitting.fit(start, t, x, forces[i], free=free, setol=0.0)
         assert one.status == "successful"
         item = batch[i]
         for name in one.names:
