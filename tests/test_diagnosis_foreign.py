@@ -24,8 +24,8 @@ pytestmark = pytest.mark.slow
 
 #: Hidden effect -> what the diagnosis does instead (from the bench's last run).
 KNOWN_FAILURES: dict[str, str] = {
-    "quadratic_drag": "an offset is named: the base model's sigma2 and Stribeck curve absorb "
-                      "the drag (excess over the clean file about 0.09 N)",
+    "quadratic_drag": "nothing is added: the base model's sigma2 and Stribeck curve absorb "
+                      "the drag (held-out RMSE within 10 % of the clean twin's)",
     "friction_lag": "nothing is added: ranked first (score about 0.12) but its held-out gain "
                     "is not consistent (t about 1.8); the base model's lag state and "
                     "viscous term take up most of it",
@@ -50,11 +50,21 @@ SINGLES = {name: k + 1 for k, name in enumerate(
      "position_dependence", "position_load", "stribeck", "friction_lag"))}
 
 
+#: Cases at the significance threshold: they flip between runs of the bench as the fits
+#: change (not strict).
+AT_THRESHOLD: dict[str, str] = {
+    "asymmetry": "explains 79 % of the held-out residual but its gain is not consistent "
+                 "enough (t 2.6 screen, 2.2 refit; needs 3) in the bench's last run",
+}
+
+
 @pytest.mark.parametrize("name", list(SINGLES))
 def test_hidden_effect_is_named_first_and_the_error_falls(name, request):
     reason = KNOWN_FAILURES.get(name)
     if reason:
         request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    if name in AT_THRESHOLD:
+        request.node.add_marker(pytest.mark.xfail(reason=AT_THRESHOLD[name], strict=False))
     d = run((name,), SINGLES[name])
     assert d.final.added and d.final.added[0] == name, d.summary()
     clean = run((), 0)
@@ -85,3 +95,21 @@ def test_hidden_joint_effect_is_named_first_and_the_error_falls(name):
     if name == "ripple":  # the count per revolution found is the gear's
         effect = next(e for e in d.model.effects if e.name == "ripple")
         assert round(2 * math.pi / float(effect.period)) == GEAR, d.summary()
+
+
+@functools.cache
+def run_from(kind: str, hidden: tuple[str, ...], seed: int):
+    """As `run`, from another base model (`fitting.initial_model` of `kind`)."""
+    t, x, F = measurement("gms_power", hidden, noise=0.03, dt=1e-2, seed=seed)
+    start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
+    return fitting.diagnose(start, t, x, F, model_name=kind)
+
+
+@pytest.mark.parametrize("name", ["cogging", "offset"])
+def test_the_effect_found_does_not_depend_on_the_base_model(name):
+    """A five-element GMS and the two-state model name the same effect first. (LuGre, whose
+    exponential presliding leaves 8-9 % of the RMS force unexplained on these files, adds
+    nothing: its mismatch hides 0.8 N effects; docs/diagnosis.md.)"""
+    seed = SINGLES[name]
+    named = {kind: run_from(kind, (name,), seed).final.added for kind in ("gms", "two-state")}
+    assert all(added and added[0] == name for added in named.values()), named
