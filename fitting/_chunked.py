@@ -43,6 +43,7 @@ from jaxtyping import Array
 
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
+from ._result import status_name
 from ._solve import _Core, _evaluate_impl, _finish_impl, STUCK_COSINE
 
 
@@ -279,7 +280,8 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         result = out.result
         cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
         if result != optx.RESULTS.successful or not np.isfinite(cost):
-            reason, y = f"the solver stopped ({result})", out.y
+            why = status_name(result) if np.isfinite(cost) else "non-finite cost"
+            reason, y = f"the solver stopped ({why})", out.y
             break
         # (The start's cost is not evaluated: inf, so the cost rules wait for a reference.)
         reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol,
