@@ -296,14 +296,9 @@ def _check_size(stack_size: int) -> int:
     return size
 
 
-def simulate_numba(params: dict, t, x, v=None, stack_size: int = 16, *, full_output=False):
-    """Two-state friction force along one trajectory, N (float64, one per sample).
-
-    **Arguments:** `params` (dict, `PARAM_NAMES`, SI); `t` times [s], strictly increasing;
-    `x` positions [m]; `v` velocities [m/s] or ``None`` for the backward difference;
-    `stack_size` the memory capacity K. With `full_output`, returns ``(F, overflow)``.
-    No input checks beyond shapes: this is the hot path of a benchmark.
-    """
+def _trajectory(t, x, v):
+    """One trajectory as contiguous float64 ``(t, x, v, use_v)`` (``v`` is ``x`` when not
+    given, unused), with its shapes checked."""
     t = np.ascontiguousarray(t, dtype=np.float64)
     x = np.ascontiguousarray(x, dtype=np.float64)
     if t.ndim != 1 or x.shape != t.shape or t.size == 0:
@@ -312,6 +307,18 @@ def simulate_numba(params: dict, t, x, v=None, stack_size: int = 16, *, full_out
     v = np.ascontiguousarray(v, dtype=np.float64) if use_v else x
     if v.shape != t.shape:
         raise ValueError("v must have the same shape as t")
+    return t, x, v, use_v
+
+
+def simulate_numba(params: dict, t, x, v=None, stack_size: int = 16, *, full_output=False):
+    """Two-state friction force along one trajectory, N (float64, one per sample).
+
+    **Arguments:** `params` (dict, `PARAM_NAMES`, SI); `t` times [s], strictly increasing;
+    `x` positions [m]; `v` velocities [m/s] or ``None`` for the backward difference;
+    `stack_size` the memory capacity K. With `full_output`, returns ``(F, overflow)``.
+    No input checks beyond shapes: this is the hot path of a benchmark.
+    """
+    t, x, v, use_v = _trajectory(t, x, v)
     out = np.empty_like(t)
     overflow = _simulate_one(t, x, v, use_v, _pack(params), _check_size(stack_size), out)
     return (out, int(overflow)) if full_output else out
@@ -344,12 +351,7 @@ def simulate_numba_params(params: list[dict], t, x, v=None, stack_size: int = 16
     """`simulate_numba` for B parameter sets on one trajectory, in parallel
     (``numba.prange`` over the sets): a Monte-Carlo over parameters. Returns forces
     ``(B, n)`` in N (and the per-set overflow counts with `full_output`)."""
-    t = np.ascontiguousarray(t, dtype=np.float64)
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    if t.ndim != 1 or x.shape != t.shape or t.size == 0:
-        raise ValueError("t and x must be 1-D arrays of the same non-zero length")
-    use_v = v is not None
-    v = np.ascontiguousarray(v, dtype=np.float64) if use_v else x
+    t, x, v, use_v = _trajectory(t, x, v)
     P = np.stack([_pack(p) for p in params])
     out = np.empty((P.shape[0], t.size))
     overflow = np.zeros(P.shape[0], dtype=np.int64)
