@@ -126,7 +126,8 @@ def fit_measurement(args, kind: str, m, log):
     t0 = time.perf_counter()
     watched = not args.quiet and sys.stdout.isatty()
     # The residuals are in units of the force's standard deviation (`fitting._problem`).
-    scale = float(np.std(m.F)) / np.sqrt(m.F.size) or 1.0
+    # (`_force_scale`: the standard deviation, or 1 for a constant force.)
+    scale = (float(np.std(m.F)) or 1.0) / np.sqrt(m.F.size)
     res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
                progress=_progress(log, scale, m.unit("F")) if watched else None,
                load=_load_of(m, start))
