@@ -64,7 +64,7 @@ def _files():
     sys.path.insert(0, str(EXAMPLES))
     from rotary_joint import record
 
-    t, q, tau = record(30.0, 0)
+    t, q, tau = record(60.0, 1)  # the log docs/rotary.md diagnoses
     yield "rotary example joint log (17 bit)", t, q, None, tau, False
     for name, force in (("emps_estimation.csv", "u"), ("tribometer.csv", "F")):
         path = SHARED / name
