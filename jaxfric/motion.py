@@ -8,9 +8,12 @@ per-sample arrays the models need (`Motion`). Everything here is vectorised over
 the models' sequential parts get these arrays. See docs/algorithm.md section 1 for the
 rules (one direction signal, backward difference).
 
+Against noisy standstill: `play` (a deadband on the position), `played_velocity`, and the
+data-driven decision `deadband_choice` / `auto_deadband` (the command line's default).
+
 The functions on NumPy arrays (`velocity`, `smooth_derivatives`, `reversals`,
-`travel_since_reversal`, `estimate_deadband`, `deadband_choice`, `auto_deadband`) are
-for data analysis outside compiled code; `backward_velocity`,
+`travel_since_reversal`, `estimate_deadband`, `deadband_choice`, `auto_deadband`) are for
+data analysis outside compiled code; `backward_velocity`, `play`, `played_velocity`,
 `make_motion` and `Motion` are JAX and run under ``jit``/``vmap``/``grad``.
 """
 
