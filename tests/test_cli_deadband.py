@@ -150,7 +150,7 @@ def test_compare_records_the_deadband(tmp_path):
 def test_joints_fit_plays_each_joint_and_simulate_reuses_it(tmp_path):
     data = _standstill_file(tmp_path, columns=2)
     fit = tmp_path / "fit.json"
-    r = run("fit", data, "--model", "tustin", "--deadband", "auto", "--json", fit, "--quiet")
+    r = run("fit", data, "--model", "tustin", "--json", fit, "--quiet")  # default: 'auto'
     assert r.returncode == 0, r.stderr
     joints = json.loads(fit.read_text())["joints"]
     b1, b2 = joints["joint 1"]["deadband"], joints["joint 2"]["deadband"]
