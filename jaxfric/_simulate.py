@@ -11,7 +11,7 @@ import numpy as np
 from jaxtyping import ArrayLike
 
 from ._models._base import AbstractFrictionModel, SimResult
-from .motion import estimate_deadband, make_motion, play, reversal_bound
+from .motion import auto_deadband, make_motion, play, played_velocity, reversal_bound
 
 
 class StackOverflowWarning(UserWarning):
@@ -109,23 +109,25 @@ def _checked_load(load, t):
     return load.astype(t.dtype)
 
 
-def apply_deadband(x, v, deadband):
-    """``(x, v)`` through the play of half-width `deadband` (m; ``"auto"``: estimated from
-    concrete `x`; ``None``/0: unchanged); a given `v` is set to 0 where the played position
-    does not move, so the direction comes from the played position alone."""
+def apply_deadband(x, v, deadband, t=None):
+    """``(x, v)`` through the play of half-width `deadband` (m; ``"auto"``: decided from
+    concrete `x` (and `v`, `t`) by `jaxfric.motion.auto_deadband`; ``None``/0: unchanged);
+    a given `v` is made to agree with the played position (`jaxfric.motion.played_velocity`),
+    so the direction comes from the played position alone."""
     if isinstance(deadband, str):
         if deadband != "auto":
             raise ValueError(f"deadband must be a number, None or 'auto', got {deadband!r}")
-        if isinstance(x, jax.core.Tracer):
+        if any(isinstance(a, jax.core.Tracer) for a in (x, v, t)):
             raise ValueError("deadband='auto' needs concrete positions; pass a number")
-        deadband = estimate_deadband(np.asarray(x))
+        deadband = auto_deadband(np.asarray(x), None if v is None else np.asarray(v),
+                                 None if t is None else np.asarray(t))
     if deadband is None or (not isinstance(deadband, jax.core.Tracer) and float(deadband) == 0):
         return x, v
     if not isinstance(deadband, jax.core.Tracer) and not float(deadband) >= 0:
         raise ValueError(f"deadband must be >= 0, got {deadband}")
     x = play(x, deadband)
     if v is not None:
-        v = jnp.where(jnp.diff(x, prepend=x[:1]) != 0, v, 0.0)
+        v = played_velocity(x, v)
     return x, v
 
 
@@ -175,8 +177,10 @@ def simulate(
       and counts the reversals beyond it in `SimResult.overflow` (a warning outside ``jit``).
     - `deadband`: half-width (m) of a play on the position against noisy standstill
       (`jaxfric.motion.play`, docs/algorithm.md section 1): the models see the played
-      position, and a given `v` is 0 where it does not move. ``"auto"``: estimated from
-      `x` (`jaxfric.motion.estimate_deadband`; concrete data only). ``None`` or 0: none.
+      position, and a given `v` is 0 where it points against the played motion while the
+      played position stands (`jaxfric.motion.played_velocity`). ``"auto"``: estimated from
+      `x` and applied only when the data show noise-made reversals
+      (`jaxfric.motion.auto_deadband`; concrete data only). ``None`` or 0: none.
     - `load`: the transmitted load, N (N m on a rotary axis), same shape as `t`: the
       signal `jaxfric.effects.LoadFriction` reads (a file's ``load`` column). A model with
       that effect raises `ValueError` without it; other models ignore it.
@@ -189,7 +193,7 @@ def simulate(
     """
     t, x, v = _checked_motion(t, x, v)
     load = _checked_load(load, t)
-    x, v = apply_deadband(x, v, deadband)
+    x, v = apply_deadband(x, v, deadband, t)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
     result = _run(model, t, x, v, max_reversals, load)

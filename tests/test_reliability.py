@@ -78,8 +78,14 @@ CASES = {
         ["test_direction.py::test_paper_two_state_stays_within_stribeck_bounds",
          "test_direction.py::test_random_two_state_stays_within_stribeck_bounds"],
     "memory overflow: counted under jit/vmap, --stack-size, reported by CLI and JSON":
-        ["test_cli_deadband.py::test_simulate_reports_overflow_and_deadband_removes_it",
+        ["test_cli_deadband.py::test_simulate_default_plays_a_noisy_standstill_and_none_overflows",
          "test_cli_deadband.py::test_fit_records_the_deadband_and_simulate_params_reuses_it"],
+    "noisy standstill: the default deadband keeps the true reversals, no overflow; a clean "
+    "file is left alone":
+        ["test_deadband_choice.py::"
+         "test_noisy_standstill_default_keeps_the_true_reversals_without_overflow",
+         "test_deadband_choice.py::test_noisy_velocity_column_at_a_quantised_standstill",
+         "test_cli_deadband.py::test_simulate_default_leaves_a_clean_encoder_file_alone"],
     "a too-small max_reversals under jit is reported, not a silent NaN":
         ["test_direction.py::test_too_small_max_reversals_is_counted_under_jit_and_vmap"],
 }

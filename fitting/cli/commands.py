@@ -318,7 +318,8 @@ def run_simulate(args) -> int:
     log(f"{len(m)} samples written to {target} (columns {header})")
     if int(out.overflow) > 0:
         print(f"warning: the memory stack overflowed {int(out.overflow)} times; raise "
-              "--stack-size, or filter noisy standstill with --deadband auto",
+              "--stack-size, or play the positions through a wider deadband against noisy "
+              f"standstill (--deadband B, in {m.unit('x')}; the log says what was used)",
               file=sys.stderr)
     return 0
 

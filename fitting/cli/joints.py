@@ -158,7 +158,7 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
 
 def _joint_deadband(args, name: str):
     """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
-    a several-joint ``--params`` (or at the top of a one-model ``--params``), else None."""
+    a several-joint ``--params`` (or at the top of a one-model ``--params``), else 'auto'."""
     from ._signals import _deadband_option
 
     if args.deadband is None and args.params:
@@ -167,8 +167,9 @@ def _joint_deadband(args, name: str):
         except (OSError, ValueError):
             spec = None
         entry = spec.get("joints", {}).get(name) if isinstance(spec, dict) else None
-        if isinstance(entry, dict):
-            return _deadband_option(entry.get("deadband"), None)
+        if isinstance(entry, dict):  # a joint saved without one was played through none
+            saved = entry.get("deadband")
+            return None if saved is None else _deadband_option(saved, None)
     return _deadband_option(args.deadband, args.params)
 
 
@@ -200,7 +201,9 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
             log(f"{name}: RMSE against {m.force_column}: {rmse:.4g} {m.unit('F')}")
         if int(out.overflow) > 0:
             print(f"warning: {name}: the memory stack overflowed {int(out.overflow)} times; "
-                  "raise stack_size", file=sys.stderr)
+                  f"raise the model's stack_size, or play the positions through a wider "
+                  f"deadband (--deadband B, in {m.unit('x')}; the log says what was used)",
+                  file=sys.stderr)
     if len({len(c) for c in cols.values()}) > 1:
         raise _data.DataError(f"{args.file}: the joints have different lengths; simulate "
                               "them one file at a time")

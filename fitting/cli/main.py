@@ -150,7 +150,9 @@ def _add_kind_options(p) -> None:
 def _add_deadband_option(p, default: str) -> None:
     p.add_argument("--deadband", metavar="B|auto|none",
                    help="play on the position against noisy standstill, in SI (m or rad), "
-                        f"'auto' (estimated from the positions) or 'none' (default: {default})")
+                        "'auto' (estimated from the positions, applied only when 4 or more "
+                        "reversals in a row are within the noise band) or 'none' "
+                        f"(default: {default})")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -188,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model to fit (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
-    _add_deadband_option(p, "none; the value used is saved in --json")
+    _add_deadband_option(p, "auto; the value used is saved in --json")
     p.add_argument("--plot", metavar="PNG", help="write measured vs fitted force (PNG)")
     p.add_argument("--params", metavar="JSON",
                    help="start from this model (a fit, a diagnosis or a saved model; its "
@@ -212,7 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
     p.add_argument("--stack-size", type=int, metavar="N",
                    help="memory stack slots of a two-state model (default: the model's)")
-    _add_deadband_option(p, "the value saved in --params, else none")
+    _add_deadband_option(p, "the value saved in --params, else auto")
     p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_derivative_options(p, default=None)
@@ -229,7 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
-    _add_deadband_option(p, "none; the value used is saved in --json")
+    _add_deadband_option(p, "auto; the value used is saved in --json")
     _add_derivative_options(p)
     p.set_defaults(func=_compare)
 
@@ -246,7 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
-    _add_deadband_option(p, "none; the value used is saved in --json")
+    _add_deadband_option(p, "auto; the value used is saved in --json")
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
     p.set_defaults(func=_diagnose)
 
