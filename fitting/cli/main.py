@@ -258,7 +258,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run the ``jaxfric`` command with `argv` (default: the process's arguments); returns
-    the exit code (0, 2 for bad input or outputs, 130 interrupted, 143 terminated)."""
+    the exit code (0, also for a fit that did not converge: its status says so; 2 for bad
+    input or outputs, 130 interrupted, 143 terminated)."""
     args = build_parser().parse_args(argv)
     from jaxfric import enable_compilation_cache
     from jaxfric.data import DataError
