@@ -1,9 +1,9 @@
 """Reliability (issue 21): every case a careful or hostile user found, with the test that
 proves it is fixed. The tests of this module cover absurd outliers (refused with their line
-and value, in files, the Python API, diagnosis and batches), `fit_batch`'s exact round
-trip, and the file-line numbers of messages; the other cases are tested beside the code
-they concern, listed in `CASES` (checked to exist by `test_every_case_has_its_test`), and
-described in docs/reliability.md.
+and value, in files, the Python API, diagnosis and batches), moderate spikes (warned with
+their rows), `fit_batch`'s exact round trip, and the file-line numbers of messages; the
+other cases are tested beside the code they concern, listed in `CASES` (checked to exist
+by `test_every_case_has_its_test`), and described in docs/reliability.md.
 """
 
 import ast
@@ -41,7 +41,12 @@ CASES = {
          "test_reliability.py::test_fit_batch_saved_models_reproduce_their_predictions"],
     # Statuses
     "--max-steps 0 is not 'successful after 0 steps'":
-        ["test_termination.py::test_zero_steps_is_not_success"],
+        ["test_termination.py::test_zero_steps_is_not_success",
+         "test_termination.py::test_cli_zero_steps_is_reported_as_not_converged"],
+    "moderate force spikes (10-50 times the noise) are named, not fitted silently":
+        ["test_reliability.py::test_moderate_spikes_in_a_file_are_named_and_fitted_as_given",
+         "test_reliability.py::test_spikes_are_found_at_their_rows_and_noise_is_not",
+         "test_reliability.py::test_no_spikes_in_ordinary_data"],
     "a force sample of 1e154 / 1e300 is not 'successful' at the start values":
         ["test_reliability.py::test_absurd_sample_in_a_file_names_its_line",
          "test_reliability.py::test_absurd_sample_is_refused_by_fit_and_diagnose",
@@ -52,13 +57,19 @@ CASES = {
     "missing/unwritable folder, --json/--out a directory: refused before the work":
         ["test_cli_outputs.py::test_bad_output_is_refused_before_any_work",
          "test_cli_outputs.py::test_demo_refuses_an_output_folder_that_is_a_file"],
+    "demo: outputs checked before the work (unwritable or unreachable folder)":
+        ["test_cli_outputs.py::test_demo_checks_its_outputs_before_any_work"],
+    "demo writes example.csv/summary.json/figures/report atomically, even when interrupted":
+        ["test_cli_outputs.py::test_an_interrupted_or_failing_demo_leaves_whole_files_only"],
     "temp files with O_EXCL, not following symlinks":
         ["test_cli_outputs.py::test_writes_do_not_follow_a_planted_symlink"],
     "interrupted writes leave no temp file and the target intact":
         ["test_cli_outputs.py::test_atomic_file_leaves_the_target_alone_when_interrupted",
          "test_cli_outputs.py::test_sigterm_during_a_fit_cleans_up_and_writes_nothing"],
     "Ctrl-C stops a fit within a second or two":
-        ["test_termination.py::test_progress_is_reported_and_an_interrupt_stops_the_fit"],
+        ["test_termination.py::test_progress_is_reported_and_an_interrupt_stops_the_fit",
+         "test_interrupts.py::test_ctrl_c_stops_a_long_fit_within_two_seconds",
+         "test_interrupts.py::test_the_watcher_stops_a_command_that_does_not_stop"],
     # Inputs
     "unreadable file: one line, exit 2":
         ["test_inputs.py::test_unreadable_file_is_one_line"],
