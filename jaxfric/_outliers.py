@@ -24,10 +24,10 @@ neighbours, where the motion is steady) are possible in real data (an impact) an
 refused: `jaxfric.data.load` warns (`DataWarning`) naming their rows and lines, and they
 are fitted as given. A friction peak sampled once (a breakaway, a stop, a speed change, a
 ripple sampled a few times per period) looks like a spike to the force column alone, so
-the rules also look at the motion and at the residuals around (see `spikes`); they found
-none in the demo's data, the synthetic measurements of `jaxfric.synthetic` and
-`jaxfric.examples`, the measured records of ../shared/data, nor in 1.9e5 samples of
-Gaussian noise on strokes (tests/test_reliability.py).
+the rules also look at the motion and at the residuals around (see `spikes`); they find
+none in the demo's data, in synthetic records with cogging or inertia sampled coarsely,
+in the measured records of ../shared/data, nor in 1.9e5 samples of Gaussian noise on
+strokes (tests/test_reliability.py).
 """
 
 import numpy as np
@@ -93,15 +93,57 @@ _RESIDUAL_GAIN = float(np.sqrt(1.0 + 34.0 / 36.0))
 SPIKE_EVENT_RATIO = 1.25
 
 
-def motion_events(t, x) -> np.ndarray:
-    """Samples within two of a change of direction or of a speed change by more than
-    `SPIKE_EVENT_RATIO` (central-difference velocity): where friction itself can peak for
-    one sample (a breakaway, a stop), so a spike there is not a glitch for sure."""
-    v = np.gradient(np.asarray(x, dtype=np.float64), np.asarray(t, dtype=np.float64))
-    windows = np.lib.stride_tricks.sliding_window_view(np.pad(v, 2, mode="edge"), 5)
-    low, high = np.abs(windows).min(axis=1), np.abs(windows).max(axis=1)
-    turning = np.sign(windows).min(axis=1) != np.sign(windows).max(axis=1)
-    return turning | (high > SPIKE_EVENT_RATIO * low)
+def motion_events(t, x, idx=None) -> np.ndarray:
+    """Whether samples `idx` (default: all) are within two of a change of direction or of
+    a speed change by more than `SPIKE_EVENT_RATIO` (central-difference velocity): where
+    friction itself can peak for one sample (a breakaway, a stop), so a spike there is not
+    a glitch for sure."""
+    t, x = np.asarray(t, dtype=np.float64), np.asarray(x, dtype=np.float64)
+    last = t.size - 1
+    idx = np.arange(t.size) if idx is None else np.asarray(idx)
+    v = []
+    for k in range(-2, 3):
+        j = np.clip(idx + k, 0, last)
+        lo, hi = np.maximum(j - 1, 0), np.minimum(j + 1, last)
+        v.append((x[hi] - x[lo]) / (t[hi] - t[lo]))
+    v = np.array(v)
+    speed = np.abs(v)
+    turning = np.sign(v).min(axis=0) != np.sign(v).max(axis=0)
+    return turning | (speed.max(axis=0) > SPIKE_EVENT_RATIO * speed.min(axis=0))
+
+
+def _residuals(a: np.ndarray) -> np.ndarray:
+    """``r[j]``: sample ``j + 2`` less the cubic through its two neighbours on each side,
+    computed in place (one array: `jaxfric.data.load` keeps its peak memory low)."""
+    r = a[1:-3] + a[3:-1]
+    r *= 4.0
+    r -= a[:-4]
+    r -= a[4:]
+    r /= -6.0
+    r += a[2:-2]
+    return r
+
+
+def _noise(r: np.ndarray) -> float:
+    """The standard deviation of the noise from the median absolute deviation of the
+    residuals `r` (one scratch array)."""
+    work = r.copy()
+    k = work.size // 2
+    work.partition(k)
+    np.subtract(r, work[k], out=work)
+    np.abs(work, out=work)
+    work.partition(k)
+    return 1.4826 * float(work[k]) / _RESIDUAL_GAIN
+
+
+def _abs_at(r: np.ndarray, j: np.ndarray, offsets) -> np.ndarray:
+    """The largest ``|r|`` at ``j + k`` for the `offsets` k (0 beyond the ends)."""
+    out = np.zeros(j.size)
+    for k in offsets:
+        jj = j + k
+        ok = (jj >= 0) & (jj < r.size)
+        out[ok] = np.maximum(out[ok], np.abs(r[jj[ok]]))
+    return out
 
 
 def spikes(values, t=None, x=None) -> tuple[np.ndarray, np.ndarray, float]:
@@ -116,35 +158,34 @@ def spikes(values, t=None, x=None) -> tuple[np.ndarray, np.ndarray, float]:
     sampled coarsely makes, stands out on one side only); and when those neighbours agree
     to within ``|r|/2`` (a peak sampled once on a slope, such as a breakaway peak between a
     rise and a plateau, has neighbours far apart); and when the residuals three and four
-    samples away are below ``|r|/2.5`` (a ripple sampled a few times per period is not
-    isolated) and those one and two away below ``|r|``. The noise is the median absolute
-    deviation of the residuals (robust to the spikes themselves), so a smooth signal's
-    curvature does not count. None are reported when more than `SPIKE_MOST` of the samples
-    would be."""
+    samples away are below ``|r|/2`` (a ripple sampled a few times per period is not
+    isolated), those two away below ``|r|`` and those one away below ``1.25 |r|`` (a
+    spike's neighbours have 1/6 and 2/3 of its residual: so only the spike itself is
+    named, not a neighbour). The noise is the median absolute deviation of the residuals (robust to
+    the spikes themselves), so a smooth signal's curvature does not count. None are
+    reported when more than `SPIKE_MOST` of the samples would be (or ten times that many
+    pass the first rule)."""
     a = np.asarray(values, dtype=np.float64)
     none = (np.zeros(0, int), np.zeros(0), 0.0)
     if a.size < 20 or not np.isfinite(a).all():
         return none
-    left2, left, mid, right, right2 = a[:-4], a[1:-3], a[2:-2], a[3:-1], a[4:]
-    r = mid - (4.0 * (left + right) - left2 - right2) / 6.0
-    noise = 1.4826 * float(np.median(np.abs(r - np.median(r)))) / _RESIDUAL_GAIN
-    size = np.abs(r)
-    s = np.sign(r)
-    found = ((size > SPIKE_NOISE * noise) & (size > SPIKE_FLOOR * spread(a))
-             & (s * (mid - left) > size / 2) & (s * (mid - right) > size / 2)
-             & (np.abs(right - left) < size / 2))
-    if t is not None and x is not None:
-        found &= ~motion_events(t, x)[2:-2]
-    # Isolated: the residuals three and four samples away (beyond the reach of a spike's
-    # own) are small; a ripple sampled a few times per period (cogging at speed) is not.
-    far = np.pad(size, 4)
-    around = np.max([far[k:k + size.size] for k in (0, 1, 7, 8)], axis=0)
-    found &= around < size / 2.5
-    # The largest residual within two samples: a spike's neighbours have 2/3 of its own.
-    near = np.max([far[k:k + size.size] for k in (2, 3, 5, 6)], axis=0)
-    found &= size > near
-    idx = np.flatnonzero(found)
-    if idx.size == 0 or idx.size > SPIKE_MOST * a.size:
+    floor = SPIKE_FLOOR * spread(a)
+    r = _residuals(a)
+    noise = _noise(r)
+    limit = max(SPIKE_NOISE * noise, floor)
+    j = np.flatnonzero((r > limit) | (r < -limit))
+    if j.size == 0 or j.size > 10 * SPIKE_MOST * a.size:
         return none
-    sizes = size[idx] / noise if noise > 0 else np.full(idx.size, np.inf)
-    return idx + 2, sizes, noise
+    i = j + 2
+    size = np.abs(r[j])
+    s = np.sign(r[j])
+    found = ((s * (a[i] - a[i - 1]) > size / 2) & (s * (a[i] - a[i + 1]) > size / 2)
+             & (np.abs(a[i + 1] - a[i - 1]) < size / 2)
+             & (_abs_at(r, j, (-4, -3, 3, 4)) < size / 2)
+             & (_abs_at(r, j, (-1, 1)) < 1.25 * size) & (_abs_at(r, j, (-2, 2)) < size))
+    if t is not None and x is not None:
+        found &= ~motion_events(t, x, i)
+    if not found.any() or found.sum() > SPIKE_MOST * a.size:
+        return none
+    sizes = size[found] / noise if noise > 0 else np.full(int(found.sum()), np.inf)
+    return i[found], sizes, noise

@@ -348,7 +348,9 @@ def test_moderate_spikes_in_a_file_are_named_and_fitted_as_given(tmp_path):
 def test_spikes_are_found_at_their_rows_and_noise_is_not():
     """Twenty noise draws on the strokes (1.9e5 samples): no spike is reported in the
     noise alone; five spikes of 12 (50) times the noise put at random rows in steady
-    motion are found in at least 95 % of the cases, and nothing else is named."""
+    motion, at least 10 rows apart, are found in at least 95 % of the cases, and nothing
+    else is named. (Missed: a spike on the steep start of a presliding curve, or one that
+    the noise made smaller.)"""
     t, x, _ = _strokes()
     base = np.asarray(jaxfric.simulate(paper.two_state(), t, x))
     steady = np.flatnonzero(~_outliers.motion_events(t, x))
@@ -358,7 +360,9 @@ def test_spikes_are_found_at_their_rows_and_noise_is_not():
         G = base + NOISE * rng.normal(size=t.size)
         assert _outliers.spikes(G, t, x)[0].size == 0, seed
         for size in found:
-            rows = rng.choice(steady[10:-10], 5, replace=False)
+            rows = np.sort(rng.choice(steady[10:-10], 5, replace=False))
+            while np.diff(rows).min() < 10:  # isolated: five spikes, not a burst
+                rows = np.sort(rng.choice(steady[10:-10], 5, replace=False))
             H = G.copy()
             H[rows] += size * NOISE * rng.choice([-1.0, 1.0], 5)
             named = set(_outliers.spikes(H, t, x)[0].tolist())
