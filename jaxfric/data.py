@@ -353,6 +353,8 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     kind = _decide_kind(source, declared, kind, _units.ROTARY if robot else default_kind)
     notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
     _check(source, columns, require_force, kind, where)
+    for message in _spike_warnings(source, columns, kind, where or _where(source)):
+        warnings.warn(message, DataWarning, stacklevel=3)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal", "load")},
         source=source,
@@ -444,6 +446,32 @@ def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:
                 f"{_outliers.message(name, columns[name][i], ratio, spread)}; repair or "
                 "delete that row"
             )
+
+
+def _spike_warnings(source: str, columns: dict[str, np.ndarray], kind: str, where
+                    ) -> list[str]:
+    """A warning per force column with isolated spikes where the motion is steady
+    (`jaxfric._outliers.spikes`): too small to refuse, large enough to pull a fit."""
+    out = []
+    for name in ("F", "u"):
+        if name not in columns:
+            continue
+        idx, sizes, noise = _outliers.spikes(columns[name], columns["t"], columns["x"])
+        if idx.size == 0:
+            continue
+        rows = [int(i) + 1 for i in idx]
+        shown = ", ".join(map(str, rows[:10])) + (", ..." if len(rows) > 10 else "")
+        places = [where(r) for r in rows[:10]]  # FILE:LINE for a text file, else source
+        lines = ("" if places[0] == source else
+                 " (lines " + ", ".join(p[len(source) + 1:] for p in places) + ")")
+        size = (f"{sizes.min():.0f}" if sizes.min() == sizes.max() or len(rows) == 1 else
+                f"{sizes.min():.0f} to {sizes.max():.0f}")
+        out.append(
+            f"{places[0]}: column {name!r}, row(s) {shown}{lines}: {len(rows)} isolated "
+            f"spike(s) of {size} times the noise ({noise:.3g} {_units.si_unit(name, kind)}) "
+            "in steady motion: glitches? They are fitted as given; if they are not "
+            "friction, delete those rows (or give them weight 0 in a fit)")
+    return out
 
 
 def _check_length_unit(m: Measurement) -> None:

@@ -139,3 +139,12 @@ def test_fit_speed_runs_and_writes_json(tmp_path):
     assert row["scipy"]["first_s"] >= row["scipy"]["warm_s"]  # + the Numba compilation
     assert {g["goal"] for g in data["goals"]} == {"warm speed-up", "first-call speed-up",
                                                   "RMSE vs scipy"}
+
+
+def test_interrupt_latency_runs_and_writes_json(tmp_path):
+    out = tmp_path / "interrupt.json"
+    printed = _run("interrupt_latency.py", "--n", "3000", "--delays", "0.3", "--json", out)
+    data = json.loads(out.read_text())
+    (row,) = data["rows"]
+    assert row["exit"] == 130 and row["one_line"] and row["left"] == [], row
+    assert data["summary"]["runs_with_expected_exit"] == 1 and "median" in printed

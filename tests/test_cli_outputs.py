@@ -5,7 +5,9 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -103,3 +105,117 @@ def test_sigterm_during_a_fit_cleans_up_and_writes_nothing(measurement, tmp_path
     assert proc.returncode == 143, err
     assert "terminated" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
+
+
+# ---- demo: outputs checked first, whole files only ----------------------------------
+
+_DEMO_RUNNER = r"""
+import json, os, sys
+import fitting.cli.demo as demo
+from fitting.cli.main import main
+
+def started(*args, **kw):
+    print("the demo started its work", file=sys.stderr)
+    raise SystemExit(99)
+
+demo.run = started
+if int(sys.argv[2]):  # as root every folder is writable: drop to the user nobody
+    os.setgid(65534)
+    os.setuid(65534)
+sys.exit(main(json.loads(sys.argv[1])))
+"""
+
+
+@pytest.mark.parametrize("case", ["out", "out_parent", "json", "unreachable"])
+def test_demo_checks_its_outputs_before_any_work(case):
+    """An output the demo cannot write (a folder we may not write in, or not even enter):
+    one line, exit 2, before the measurement is even made (`demo.run` is replaced by a
+    function that reports that it started)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        top = Path(tmp)
+        os.chmod(top, 0o755)  # nobody may enter the top folder
+        locked, free, shut = top / "locked", top / "free", top / "shut"
+        for folder, mode in ((locked, 0o555), (free, 0o777), (shut, 0o000)):
+            folder.mkdir()
+            folder.chmod(mode)  # (mkdir's mode is masked by the umask)
+        argv = {"out": ["demo", "--out", str(locked)],
+                "out_parent": ["demo", "--out", str(locked / "new" / "report")],
+                "json": ["demo", "--out", str(free / "report"), "--json",
+                         str(locked / "s.json")],
+                "unreachable": ["demo", "--out", str(shut / "report")]}[case]
+        try:
+            r = subprocess.run([sys.executable, "-c", _DEMO_RUNNER, json.dumps(argv),
+                                str(int(os.geteuid() == 0))], capture_output=True,
+                               text=True, timeout=120,
+                               env={**os.environ, "JAXFRIC_CACHE_DIR": ""})
+        finally:
+            for folder in (locked, shut):
+                folder.chmod(0o755)
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        option = "--json" if case == "json" else "--out"
+        assert len(lines) == 1, r.stderr
+        assert lines[0].startswith(f"jaxfric demo: error: {option} "), r.stderr
+        assert "permission denied" in lines[0] and "Traceback" not in r.stderr
+        assert [list(f.iterdir()) for f in (locked, free, shut)] == [[], [], []]
+
+
+def _small_measurement(seed=0, dt=2e-2):
+    t = np.arange(300) * dt
+    x = 2e-3 * np.sin(2 * np.pi * t / 3.0)
+    return t, x, np.tanh(np.gradient(x, t) / 1e-3), None
+
+
+def _half_then(exc):
+    """A stand-in for `np.savetxt` that writes part of the file, then raises `exc`."""
+    def savetxt(f, *args, **kw):
+        f.write("t[s],x[m],F[N]\n0,0,0\n0.02,")
+        raise exc
+    return savetxt
+
+
+def _diagnosis_raising(exc):
+    def diagnose(*args, **kw):
+        raise exc
+    return diagnose
+
+
+@pytest.mark.parametrize(("where", "exc", "code"), [
+    ("example.csv", KeyboardInterrupt, 130),   # Ctrl-C while the measurement is written
+    ("fit", KeyboardInterrupt, 130),           # Ctrl-C during the fit
+    ("fit", RuntimeError("solver bug"), None),  # the work fails
+])
+def test_an_interrupted_or_failing_demo_leaves_whole_files_only(tmp_path, monkeypatch, capsys,
+                                                               where, exc, code):
+    """The folder of an earlier demo: every file is either the old one or a whole new one,
+    and no temporary file is left, whether Ctrl-C lands in a write or in the fit, or the fit
+    fails."""
+    import fitting
+    from fitting.cli import demo
+    from fitting.cli.main import main
+
+    out = tmp_path / "report"
+    out.mkdir()
+    old = {name: f"old {name}" for name in ("example.csv", "summary.json", "report.html")}
+    for name, text in old.items():
+        (out / name).write_text(text)
+    monkeypatch.setattr(demo, "example_measurement", _small_measurement)
+    if where == "example.csv":
+        monkeypatch.setattr(demo.np, "savetxt", _half_then(exc))
+    else:
+        monkeypatch.setattr(fitting, "diagnose", _diagnosis_raising(exc))
+    argv = ["demo", "--out", str(out), "--quiet"]
+    if code is None:
+        with pytest.raises(RuntimeError, match="solver bug"):
+            main(argv)
+    else:
+        assert main(argv) == code
+        assert capsys.readouterr().err == "jaxfric demo: interrupted\n"
+    assert sorted(p.name for p in out.iterdir()) == sorted(old)  # no temp file
+    for name, text in old.items():
+        if name == "example.csv" and where == "fit":  # written whole before the fit
+            t, x, F, _ = _small_measurement()
+            back = np.loadtxt(out / name, delimiter=",", skiprows=1)
+            np.testing.assert_allclose(back, np.column_stack([t, x, F]), rtol=1e-9)
+        else:
+            assert (out / name).read_text() == text

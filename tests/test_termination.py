@@ -121,3 +121,32 @@ def test_the_step_left_in_standard_errors_stops_a_creeping_fit(problem):
     off = fitting.fit(start, t, x, F, solver=never, ftol=0.0, xtol=0.0, gtol=0.0, setol=0.0,
                       max_steps=60)
     assert "max_steps" in off.stopped or "stuck" in off.stopped, off.stopped
+
+
+def test_cli_zero_steps_is_reported_as_not_converged(tmp_path):
+    """``jaxfric fit FILE --max-steps 0``: the status line, a warning and the JSON say the
+    fit did not converge; the exit code is 0 as docs/cli.md documents for a fit that
+    stopped unconverged (its values, the start, are written)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    t = np.linspace(0.0, 6.0, 1201)
+    x = 2e-3 * np.sin(2 * np.pi * t / 3.0)
+    F = np.asarray(jaxfric.simulate(paper.tustin(), t, x))
+    path, out = tmp_path / "m.csv", tmp_path / "f.json"
+    np.savetxt(path, np.column_stack([t, x, F]), delimiter=",", header="t,x,F", comments="")
+    r = subprocess.run([sys.executable, "-m", "fitting.cli", "fit", str(path), "--model",
+                        "tustin", "--max-steps", "0", "--json", str(out)],
+                       capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "JAXFRIC_CACHE_DIR": ""})
+    assert r.returncode == 0, r.stderr
+    assert "tustin: NOT converged (nonlinear_max_steps_reached) after 0 steps" in r.stdout
+    assert "stopped: max_steps = 0: no step taken" in r.stdout
+    assert "successful" not in r.stdout
+    warning = [ln for ln in r.stderr.splitlines() if ln.startswith("warning:")]
+    assert len(warning) == 1 and "did not converge (nonlinear_max_steps_reached)" in warning[0]
+    saved = json.loads(out.read_text())
+    assert saved["converged"] is False and saved["iterations"] == 0
+    assert saved["status"] == "nonlinear_max_steps_reached"

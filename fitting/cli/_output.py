@@ -7,7 +7,8 @@ through a private temporary file in the target's folder (created with O_EXCL by
 `tempfile.mkstemp`, so it never follows a planted symlink or overwrites someone else's
 file), flushes and fsyncs it, and renames it over the target; on any exit before that,
 Ctrl-C and SIGTERM included (see `fitting.cli.main`), the temporary file is removed and
-the target is untouched. The finished file gets the usual permissions (0666 less the
+the target is untouched (`remove_pending` does it for a process ended at once by
+`fitting.cli._interrupt`). The finished file gets the usual permissions (0666 less the
 umask), as a plain ``open`` would give it.
 """
 
@@ -27,10 +28,31 @@ def _umask() -> int:
     return mask
 
 
+def _unreachable(option: str, path: Path, error: OSError) -> DataError:
+    """A path we may not even look at (a folder on the way we may not enter)."""
+    reason = (error.strerror or str(error)).lower()
+    return DataError(f"{option} {path}: cannot write there ({reason}: {error.filename})")
+
+
 def check_file(path, option: str) -> Path:
     """`path` can be written as a file: not a folder, in a folder that exists and that we
     may write in. Raises `DataError` naming the `option` (e.g. ``"--json"``)."""
-    target = Path(path)
+    try:
+        return _check_file(Path(path), option)
+    except OSError as e:
+        raise _unreachable(option, Path(path), e) from None
+
+
+def check_folder(path, option: str) -> Path:
+    """`path` is a folder we can write in, or can be made in a writable parent folder
+    (it is not made here). Raises `DataError` naming the `option`."""
+    try:
+        return _check_folder(Path(path), option)
+    except OSError as e:
+        raise _unreachable(option, Path(path), e) from None
+
+
+def _check_file(target: Path, option: str) -> Path:
     if target.is_dir():
         raise DataError(f"{option} {target}: is a folder; give a file name")
     folder = target.parent
@@ -43,10 +65,7 @@ def check_file(path, option: str) -> Path:
     return target
 
 
-def check_folder(path, option: str) -> Path:
-    """`path` is a folder we can write in, or can be made in a writable parent folder
-    (it is not made here). Raises `DataError` naming the `option`."""
-    folder = Path(path)
+def _check_folder(folder: Path, option: str) -> Path:
     if folder.exists() and not folder.is_dir():
         raise DataError(f"{option} {folder}: is a file, not a folder")
     existing = folder
@@ -57,12 +76,17 @@ def check_folder(path, option: str) -> Path:
     return folder
 
 
+#: Temporary files of the `atomic_file`s being written (for `remove_pending`).
+_pending: set[str] = set()
+
+
 @contextlib.contextmanager
 def atomic_file(path, mode: str = "w"):
     """``with atomic_file(path) as f: f.write(...)``: `path` holds the whole new content
     afterwards, or is unchanged if anything fails or is interrupted before the end."""
     target = Path(path)
     fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    _pending.add(tmp)
     try:
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, mode) as f:
@@ -74,6 +98,17 @@ def atomic_file(path, mode: str = "w"):
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+    finally:
+        _pending.discard(tmp)
+
+
+def remove_pending() -> None:
+    """Remove the temporary files of the `atomic_file`s still being written: for a process
+    about to end without unwinding (`fitting.cli._interrupt`). Their targets are left as
+    they were (or as just renamed, whole)."""
+    for tmp in list(_pending):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
 
 
 def _finite_or_null(obj):

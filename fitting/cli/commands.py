@@ -132,7 +132,10 @@ def fit_measurement(args, kind: str, m, log):
                progress=_progress(log, scale, m.unit("F")) if watched else None,
                load=_load_of(m, start))
     elapsed = time.perf_counter() - t0
-    log(f"\n{kind}: {res.status} after {int(res.num_steps)} steps ({elapsed:.1f} s); "
+    # The verdict first: a status name alone ("nonlinear_max_steps_reached") does not say
+    # to everyone that the values are not a converged fit.
+    verdict = "converged" if bool(res.converged) else "NOT converged"
+    log(f"\n{kind}: {verdict} ({res.status}) after {int(res.num_steps)} steps ({elapsed:.1f} s); "
         f"RMSE {float(res.rmse):.4g} {m.unit('F')}, NRMSE {float(res.nrmse):.4g}, "
         f"R2 {float(res.r2):.4f}\nstopped: {res.stopped}")
     log(param_table(res, m.kind))

@@ -3,6 +3,7 @@
 import argparse
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -260,13 +261,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run the ``jaxfric`` command with `argv` (default: the process's arguments); returns
-    the exit code (0, 2 for bad input or outputs, 130 interrupted, 143 terminated)."""
+    the exit code (0, also for a fit that did not converge: its status says so; 2 for bad
+    input or outputs, 130 interrupted, 143 terminated)."""
     args = build_parser().parse_args(argv)
     from jaxfric import enable_compilation_cache
     from jaxfric.data import DataError
 
+    from . import _interrupt
+
     enable_compilation_cache()
-    signal.signal(signal.SIGTERM, _terminate)
+    signal.signal(signal.SIGTERM, _interrupt.terminate)
+    # The command line as a process stops within about a second of Ctrl-C or SIGTERM, even
+    # in compiled code; an in-process call (argv given) gets the exit code back instead.
+    hard = argv is None and threading.current_thread() is threading.main_thread()
+    if hard:
+        _interrupt.arm(args.command)
     try:
         from ._io import check_options
 
@@ -276,12 +285,10 @@ def main(argv=None) -> int:
     except DataError as e:
         print(f"jaxfric {args.command}: error: {e}", file=sys.stderr)
         return 2
-    except _Terminated:
-        print(f"jaxfric {args.command}: terminated", file=sys.stderr)
-        return 143
+    except _interrupt.Terminated:
+        return _interrupt.stop(args.command, signal.SIGTERM, hard)
     except KeyboardInterrupt:
-        print(f"jaxfric {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return _interrupt.stop(args.command, signal.SIGINT, hard)
 
 
 #: The outputs of each command: (option, attribute, file or folder), checked before work.
@@ -304,10 +311,3 @@ def _check_outputs(args) -> None:
         if path:
             (check_file if kind == "file" else check_folder)(path, option)
 
-
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, raised like Ctrl-C so that unfinished outputs are cleaned up."""
-
-
-def _terminate(signum, frame):
-    raise _Terminated
