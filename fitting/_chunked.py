@@ -25,9 +25,13 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
 - `max_steps` and the tolerances are plain Python values here and traced values in the
   compiled chunk (the last chunk's step budget is an array, `_Budgeted`): changing them does
   not recompile, and a second fit of the same shapes reuses the compiled chunk.
-- Ctrl-C: Python handles the signal between chunks. Each chunk's budget is chosen from the
-  measured time per step so that a call lasts about `CHUNK_SECONDS` (at most `CHUNK`
-  steps), so an interrupted fit stops within a second or two.
+- Chunk sizes are fixed (`MIN_CHUNK` steps for the first call, which also compiles, then
+  `CHUNK`), not chosen from the measured time per step: the scaling is renewed and the
+  solver restarted at chunk boundaries, so boundaries that moved with the machine's load
+  made the same fit land on different optima from run to run (seen on the EMPS record:
+  different effects added by a diagnosis). Ctrl-C: Python handles the signal between
+  chunks (a chunk of 1e5 samples lasts a few seconds on two cores); the command line
+  stops within a second whatever runs (`fitting.cli._interrupt`).
 """
 
 import dataclasses
@@ -51,8 +55,6 @@ from ._solve import _Core, _evaluate_impl, _finish_impl, STUCK_COSINE
 CHUNK = 32
 #: Fewest steps per call (the first step of a call only evaluates the residual at its start).
 MIN_CHUNK = 8
-#: Target duration of one compiled call (s): the latency of Ctrl-C and of progress reports.
-CHUNK_SECONDS = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -240,11 +242,11 @@ def _reference(history: list, steps: int) -> tuple:
     return steps - k, cost, y
 
 
-def _next_budget(steps: int, max_steps: int, per_step: float | None) -> int:
-    """Steps for the next call: about `CHUNK_SECONDS` of work (`MIN_CHUNK` until the time
-    per step is known), `MIN_CHUNK` to `CHUNK`, no more than `max_steps` allows."""
-    want = MIN_CHUNK if per_step is None else int(CHUNK_SECONDS / max(per_step, 1e-9))
-    return min(max(MIN_CHUNK, min(CHUNK, want)), max_steps - steps)
+def _next_budget(steps: int, max_steps: int) -> int:
+    """Steps for the next call: `MIN_CHUNK` for the first (it also compiles, and the first
+    progress report comes soon), `CHUNK` after, no more than `max_steps` allows. Fixed, so
+    that the fit does not depend on the machine's speed (module docstring)."""
+    return min(MIN_CHUNK if steps == 0 else CHUNK, max_steps - steps)
 
 
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
@@ -257,7 +259,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         core = _finish(problem, y0, data, resid, jac, force, overflow,
                        optx.RESULTS.nonlinear_max_steps_reached, jnp.asarray(0))
         return core, "max_steps = 0: no step taken"
-    y, steps, per_step = y0, 0, None
+    y, steps = y0, 0
     mask = np.asarray(problem.layout.coordinate_mask())
     n_obs = int(np.sum(np.asarray(data.weights) > 0))
     d = np.zeros(np.shape(y0))
@@ -266,8 +268,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
     result, reason, converged, out = optx.RESULTS.successful, None, False, None
     t0 = time.perf_counter()
     while steps < max_steps:
-        budget = _next_budget(steps, max_steps, per_step)
-        tick = time.perf_counter()
+        budget = _next_budget(steps, max_steps)
         # Columns far weaker than the strongest are scaled as if 1e-3 of it: a nearly flat
         # column (a parameter saturating its bounded transform) would otherwise get steps so
         # long that they push it further into its bound.
@@ -293,8 +294,6 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             progress(_Progress(steps, cost, time.perf_counter() - t0))
         if reason is not None:
             break
-        # Time per step measured from the second call on (the first also compiles).
-        per_step = (time.perf_counter() - tick) / max(taken, 1) if steps > taken else None
     if reason is None:
         result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
                           f"max_steps = {max_steps} reached")

@@ -98,12 +98,24 @@ def test_progress_is_reported_and_an_interrupt_stops_the_fit(problem):
         fitting.fit(start, t, x, F, progress=interrupt)
 
 
-def test_chunk_budget_follows_the_time_per_step():
-    assert _chunked._next_budget(0, 256, None) == _chunked.MIN_CHUNK
-    assert _chunked._next_budget(10, 256, 1e-4) == _chunked.CHUNK  # fast: a full chunk
-    assert _chunked._next_budget(10, 256, 0.5) == _chunked.MIN_CHUNK  # slow: the least
-    assert _chunked._next_budget(10, 256, 0.1) == 10  # about one second of work
-    assert _chunked._next_budget(250, 256, 1e-4) == 6  # never past max_steps
+def test_chunk_budget_is_fixed():
+    assert _chunked._next_budget(0, 256) == _chunked.MIN_CHUNK
+    assert _chunked._next_budget(8, 256) == _chunked.CHUNK
+    assert _chunked._next_budget(250, 256) == 6  # never past max_steps
+
+
+def test_the_fit_does_not_depend_on_the_machines_speed(problem, monkeypatch):
+    """Chunk boundaries (where the scaling is renewed) must not follow the clock: the same
+    fit on a machine that seems 1000 times slower lands on the same parameters."""
+    t, x, F, start = problem
+    fast = fitting.fit(start, t, x, F, max_steps=256)
+    clock = iter(np.arange(0.0, 1e9, 10.0))
+    monkeypatch.setattr(_chunked.time, "perf_counter", lambda: float(next(clock)))
+    slow = fitting.fit(start, t, x, F, max_steps=256)
+    assert int(slow.num_steps) == int(fast.num_steps)
+    for a, b in zip(jax.tree.leaves(eqx.filter(fast.model, eqx.is_inexact_array)),
+                    jax.tree.leaves(eqx.filter(slow.model, eqx.is_inexact_array))):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
 def test_the_step_left_in_standard_errors_stops_a_creeping_fit(problem):
