@@ -75,7 +75,12 @@ def run_case(case: dict) -> dict:
             "rmse_before": d.baseline.rmse, "rmse_after": d.final.rmse,
             "rmse_holdout_before": d.baseline.rmse_holdout,
             "rmse_holdout_after": d.final.rmse_holdout,
-            "seconds": time.perf_counter() - t0, "summary": d.summary()}
+            "seconds": time.perf_counter() - t0, "summary": d.summary(),
+            "trials": d.trials,
+            "rankings": [[{"name": c.name, "score": c.score,
+                           "t": c.t_stat if np.isfinite(c.t_stat) else None,
+                           "significant": c.significant} for c in ranking]
+                         for ranking in d.rankings]}
 
 
 def clean_holdout(case: dict, start, holdout) -> float:
@@ -106,9 +111,9 @@ def absorbed(row: dict) -> bool:
     return bool(row["hidden"]) and row["rmse_holdout_before"] < (1 + ABSORBED) * clean
 
 
-def cases(quick: bool) -> list[dict]:
-    truths, noises, rates = (TRUTHS[:1], NOISES[:1], RATES[:1]) if quick else (
-        TRUTHS, NOISES, RATES)
+def cases(quick: bool, truths=None) -> list[dict]:
+    truths = truths or (TRUTHS[:1] if quick else TRUTHS)
+    noises, rates = (NOISES[:1], RATES[:1]) if quick else (NOISES, RATES)
     hidden = [()] + [(h,) for h in SINGLES] + list(PAIRS)
     out = []
     for truth in truths:
@@ -118,6 +123,29 @@ def cases(quick: bool) -> list[dict]:
                     out.append({"truth": truth, "noise": noise, "dt": dt, "hidden": list(h),
                                 "seed": k})
     return out
+
+
+def wrong_refits(rows: list[dict]) -> list[dict]:
+    """Every joint refit (`fitting.Diagnosis.trials`) of an effect that was not hidden in
+    its file, with the file's hidden effects: the null evidence the significance rule must
+    reject (on a clean file all refits are of this kind)."""
+    return [{**tr, "hidden": r["hidden"]} for r in rows for tr in r.get("trials", ())
+            if not set(tr["effects"]) <= set(r["hidden"])]
+
+
+def _null_summary(rows: list[dict]) -> dict:
+    """The largest held-out share removed by a refit of an effect not hidden, on clean
+    files and on any file, and how many such refits the rule let through."""
+    wrong = wrong_refits(rows)
+    clean = [w for w in wrong if not w["hidden"]]
+    return {
+        "wrong_refits": len(wrong),
+        "wrong_refits_added": sum(w["added"] for w in wrong),
+        "largest_share_removed_by_wrong_refit_clean": max(
+            (w["removed"] for w in clean), default=None),
+        "largest_share_removed_by_wrong_refit": max((w["removed"] for w in wrong),
+                                                    default=None),
+    }
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -146,6 +174,7 @@ def summarise(rows: list[dict]) -> dict:
         "median_excess_removed_when_found": float(np.median(removed)) if removed else None,
         "found_with_half_excess_removed": (float(np.mean(np.asarray(removed) >= 0.5))
                                            if removed else None),
+        **_null_summary(rows),
     }
 
 
@@ -174,9 +203,42 @@ def print_table(rows: list[dict], summary: dict) -> None:
         if sel:
             print(f"{h:<22}" + "".join(
                 f"{sum((r['first'] or '-') == n for r in sel):>11}" for n in named))
+    wrong = wrong_refits(rows)
+    if wrong:
+        print("\nrefits of effects not hidden in their file (what the rule must reject):")
+        for w in sorted(wrong, key=lambda w: -w["removed"]):
+            t = "inf" if w["t"] is None else f"{w['t']:.1f}"
+            print(f"  {' + '.join(w['hidden']) or '(clean)':<34} {' + '.join(w['effects']):<34}"
+                  f" removed {100 * w['removed']:6.1f} %  t {t:>5}"
+                  f"  {'ADDED' if w['added'] else 'rejected'}")
     print("\nsummary:")
     for k, v in summary.items():
         print(f"  {k:<36} {v if not isinstance(v, float) else round(v, 3)}")
+
+
+def _verdict(r: dict) -> str:
+    if len(r["hidden"]) == 2:
+        found = [h for h in r["hidden"] if h in r["added"]]
+        ok = "ok" if len(found) == 2 else f"**miss** ({len(found)} of 2)"
+    elif r["hidden"]:
+        ok = "ok" if r["first"] == r["hidden"][0] else "**miss**"
+    else:
+        ok = "ok" if not r["added"] else "**miss**"
+    return ok + (" (absorbed)" if absorbed(r) else "")
+
+
+def markdown(rows: list[dict]) -> str:
+    """The per-file table as Markdown, for docs/diagnosis.md."""
+    lines = ["| truth | noise [N] | dt [ms] | hidden | named (in order) | held-out RMSE "
+             "before -> after [N] | clean twin [N] | |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        clean = r.get("rmse_holdout_clean", float("nan"))
+        lines.append(
+            f"| {r['truth']} | {r['noise']:g} | {r['dt'] * 1e3:g} | "
+            f"{' + '.join(r['hidden']) or '(clean)'} | {', '.join(r['added']) or 'nothing'} | "
+            f"{r['rmse_holdout_before']:.3f} -> {r['rmse_holdout_after']:.3f} | "
+            f"{'' if np.isnan(clean) else f'{clean:.3f}'} | {_verdict(r)} |")
+    return "\n".join(lines)
 
 
 def main(argv=None) -> int:
@@ -186,8 +248,10 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=str(HERE / "diagnosis_bench.json"),
                     help="output JSON (default: %(default)s)")
     ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
+    ap.add_argument("--truths", help=f"comma-separated truths (default: {', '.join(TRUTHS)}; "
+                    "--quick: the first)")
     args = ap.parse_args(argv)
-    todo = cases(args.quick)
+    todo = cases(args.quick, args.truths.split(",") if args.truths else None)
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
@@ -206,6 +270,7 @@ def main(argv=None) -> int:
                        "python": sys.version.split()[0]},
            "quick": args.quick, "seconds": time.perf_counter() - t0, "summary": summary,
            "files": rows}
+    print("\n" + markdown(rows))
     Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     print(f"\nwrote {args.json}")
     return 0

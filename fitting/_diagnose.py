@@ -70,7 +70,7 @@ from jaxfric import effects as fx
 from . import _params
 from ._candidates import _code, Candidate
 from ._derivatives import describe, estimate_velocity
-from ._evidence import evidence
+from ._evidence import convincing, evidence, needs, STRONG_SHARE
 from ._fit import fit
 from ._plausibility import plausibility
 from ._regimes import holdout_mask, regime_errors, regimes
@@ -111,6 +111,10 @@ class Diagnosis:
     #: The deadband (m or rad) the positions were played through before the diagnosis
     #: (`jaxfric.motion.play`; the command line's ``--deadband``), or None.
     deadband: float | None = None
+    #: Every joint refit tried, in order: ``{"round", "effects", "rmse_holdout_before",
+    #: "rmse_holdout_after", "removed" (share of the held-out SSE), "t", "batches",
+    #: "added"}`` (``t`` None when infinite).
+    trials: list[dict] = dataclasses.field(default_factory=list)
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -136,6 +140,7 @@ class Diagnosis:
             "velocity": self.velocity,
             "derivatives": self.derivatives,
             "warnings": self.warnings,
+            "trials": self.trials,
             **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
@@ -238,6 +243,9 @@ class _State:
     resid: np.ndarray
     best_holdout: float
     added: list[str]
+    #: Every refit tried (`_refit`): effects, held-out RMSE before and after, share of the
+    #: held-out SSE removed, consistency, and whether it was added.
+    trials: list[dict] = dataclasses.field(default_factory=list)
 
 
 def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
@@ -279,27 +287,38 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
     # effect not yet shown consistent must now be so where it acts.
     enough = trial.rmse_holdout**2 < (1.0 - 0.5 * ctx.min_score) * state.best_holdout**2
     ev = evidence(state.resid, trial_resid, ctx.test, ctx.v_arr)
-    return trial, trial_resid, enough, ev.t, ev.batches
+    removed = 1.0 - trial.rmse_holdout**2 / state.best_holdout**2
+    state.trials.append({"round": len(state.added), "effects": list(names_new),
+                         "rmse_holdout_before": state.best_holdout,
+                         "rmse_holdout_after": trial.rmse_holdout, "removed": removed,
+                         "t": ev.t if np.isfinite(ev.t) else None,
+                         "batches": ev.batches, "added": False})
+    return trial, trial_resid, enough, ev.t, ev.batches, removed
 
 
 def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
     """Add `chosen` alone and refit: ``(step, residual)`` when the refit holds up (removes
-    enough held-out SSE and, for a candidate not yet shown consistent, is consistent where
-    it acts), else ``None`` with the reason in its evidence."""
+    enough held-out SSE, and its gain is convincing where it acts, `convincing`, or, for a
+    candidate significant on the screen, removes at least `STRONG_SHARE`), else ``None``
+    with the reason in its evidence."""
     ctx.log(f"adding {chosen.name} and refitting ...")
-    trial, trial_resid, enough, t_refit, n_blocks = _refit(ctx, state, (chosen.effect,),
-                                                           [chosen.name])
-    if enough and (chosen.significant or t_refit >= ctx.min_t):
+    trial, trial_resid, enough, t_refit, n_blocks, removed = _refit(
+        ctx, state, (chosen.effect,), [chosen.name])
+    # The refit is the model itself: its held-out gain must be convincing (a linearised
+    # screen can pass on the model's mismatch alone), or, for a candidate whose screen was
+    # consistent, at least large (a slow drift has too few batches for any t).
+    if enough and (convincing(removed, t_refit, ctx.min_t)
+                   or (chosen.significant and removed >= STRONG_SHARE)):
         if not chosen.significant:
             chosen.significant, chosen.t_stat = True, t_refit
-            chosen.evidence += (f"; confirmed by the joint refit, consistent over "
-                                f"{n_blocks} held-out batches (t = {t_refit:.1f})")
+        chosen.evidence += (f"; confirmed by the joint refit: it removed "
+                            f"{100 * removed:.3g} % of the held-out SSE, consistent over "
+                            f"{n_blocks} held-out batches (t = {t_refit:.1f})")
         return trial, trial_resid
-    removed = 1 - trial.rmse_holdout**2 / state.best_holdout**2
     why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
            f"{50 * ctx.min_score:.3g} %)" if not enough else
-           f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, needs "
-           f"{ctx.min_t:g})")
+           f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, "
+           f"{needs(ctx.min_t)}; it removed {100 * removed:.3g} %)")
     ctx.log(f"  {chosen.name} not added: {why}")
     chosen.evidence += f"; not added: {why}"
     chosen.significant = False
@@ -357,6 +376,14 @@ def _try_singles(ctx: _Context, state: _State, ranking):
     return None, None, None
 
 
+def _mark_added(trials: list[dict], names: set[str]) -> None:
+    """Mark the last refit of exactly `names` as the one added."""
+    for trial in reversed(trials):
+        if set(trial["effects"]) == names:
+            trial["added"] = True
+            return
+
+
 def _describe_pair(pair, t_refit: float, n_blocks: int) -> None:
     """Each candidate of an accepted pair takes the pair's values, its share within the
     pair as its score, and evidence saying so."""
@@ -391,13 +418,13 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
         out = _refit(ctx, state, pair.effects, names_pair)
         ctx.log(f"  held-out RMSE {out[0].rmse_holdout:.4g} N (was {state.best_holdout:.4g} "
                 f"N), consistency where they act t = {out[3]:.1f}")
-        if out[2] and out[3] >= ctx.min_t:
+        if out[2] and convincing(out[5], out[3], ctx.min_t):
             tried.append((out, pair))
     if not tried:
         return None, None, None
     # Of the pairs that hold up (two effects with partly alike terms can compete, e.g. an
     # offset and an asymmetry), keep the lower held-out error.
-    (trial, trial_resid, _, t_refit, n_blocks), pair = min(
+    (trial, trial_resid, _, t_refit, n_blocks, _), pair = min(
         tried, key=lambda o: o[0][0].rmse_holdout)
     _describe_pair(pair, t_refit, n_blocks)
     ranking.sort(key=lambda c: c.score, reverse=True)
@@ -470,6 +497,7 @@ def diagnose(
         if accepted is None:
             break
         steps.append(trial)
+        _mark_added(state.trials, {c.name for c in accepted})
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
         state.best_holdout = trial.rmse_holdout
@@ -479,6 +507,7 @@ def diagnose(
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
                      model=state.current, model_name=model_name or type(ctx.model).__name__,
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
+                     trials=state.trials,
                      derivatives=None if v is not None else {"method": derivatives,
                                                              "window_s": velocity_window})
 

@@ -24,7 +24,7 @@ from ._candidates import (
     _with_linear,
     Candidate,
 )
-from ._evidence import evidence
+from ._evidence import convincing, evidence
 
 
 def _base_jacobian(model, t, x, v, fixed=(), load=None):
@@ -178,7 +178,7 @@ def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t, lo
     gain, effect, w, new = best
     ev = evidence(ref, new, test, v)
     effect = _with_linear(effect, w)
-    significant = bool(gain >= min_score and ev.t >= min_t)
+    significant = bool(gain >= min_score and convincing(gain, ev.t, min_t))
     words = (f"{effect.describe()}; explains {100 * gain:.3g} % of all the held-out residual "
              f"variance; {ev.words()}")
     code = _code(effect)

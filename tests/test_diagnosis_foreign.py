@@ -52,10 +52,7 @@ SINGLES = {name: k + 1 for k, name in enumerate(
 
 #: Cases at the significance threshold: they flip between runs of the bench as the fits
 #: change (not strict).
-AT_THRESHOLD: dict[str, str] = {
-    "asymmetry": "explains 79 % of the held-out residual but its gain is not consistent "
-                 "enough (t 2.6 screen, 2.2 refit; needs 3) in the bench's last run",
-}
+AT_THRESHOLD: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("name", list(SINGLES))
@@ -70,6 +67,27 @@ def test_hidden_effect_is_named_first_and_the_error_falls(name, request):
     clean = run((), 0)
     excess = d.baseline.rmse_holdout - clean.final.rmse_holdout
     assert d.baseline.rmse_holdout - d.final.rmse_holdout >= 0.5 * excess, d.summary()
+
+
+#: Pairs of hidden effects (the bench's seeds) -> what the diagnosis does instead.
+PAIRS = {("asymmetry", "position_dependence"): 11, ("inertia", "cogging"): 12,
+         ("quadratic_drag", "drift"): 13}
+PAIR_FAILURES: dict[tuple[str, str], str] = {
+    ("asymmetry", "position_dependence"): "the asymmetry is found; the position dependence "
+    "left on its residual removes about 23 % of the held-out SSE in its refit, t about 0.8",
+    ("quadratic_drag", "drift"): "the drift is found; the drag is absorbed by the base "
+    "model's sigma2 and Stribeck curve (as alone)",
+}
+
+
+@pytest.mark.parametrize("pair", list(PAIRS), ids="+".join)
+def test_both_hidden_effects_of_a_pair_are_found(pair, request):
+    reason = PAIR_FAILURES.get(pair)
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    d = run(pair, PAIRS[pair])
+    assert set(pair) <= set(d.final.added), d.summary()
+    assert d.final.rmse_holdout < 0.8 * d.baseline.rmse_holdout, d.summary()
 
 
 @functools.cache

@@ -7,7 +7,7 @@ import pytest
 
 import jaxfric
 from fitting._derivatives import describe, estimate_velocity
-from fitting._evidence import _autocorrelation_time, evidence
+from fitting._evidence import _autocorrelation_time, convincing, evidence, STRONG_SHARE, STRONG_T
 from fitting._plausibility import plausibility, steady_state
 
 
@@ -44,6 +44,16 @@ def test_fitting_noise_is_not_evidence():
         wiggle = 0.01 * np.sin(2 * np.pi * x / (1.3e-3 + 1e-4 * k))  # a term fitting nothing
         ts.append(evidence(noise, noise - wiggle, test, v).t)
     assert max(ts) < 3
+
+
+def test_a_large_held_out_gain_needs_less_consistency():
+    # The rule of `convincing`: t >= min_t, or t >= STRONG_T with at least STRONG_SHARE of
+    # the held-out residual variance removed (the foreign-truth asymmetry of
+    # tests/test_diagnosis_foreign.py is such a case: 79 %, t 2.6).
+    assert convincing(0.79, 2.6, 3.0)
+    assert not convincing(STRONG_SHARE - 0.01, 2.9, 3.0)  # size below, t below min_t
+    assert not convincing(0.99, STRONG_T - 0.01, 3.0)  # size alone is not enough
+    assert convincing(0.06, 3.0, 3.0)
 
 
 def test_a_smooth_mismatch_gets_long_batches():
