@@ -16,6 +16,12 @@ simulation (so they hold for every model kind), against the scale of the measure
   differ by more than 10 % of the sliding force level: the fit then relies on a state that
   never settles instead of on its friction curve.
 
+- **friction curve**: a Stribeck curve whose level at rest ``Fs`` is below 90 % of its
+  sliding level ``Fc`` rises with speed. Flagged: over the measured speeds it can stand in
+  for viscous friction or a drag (on the EMPS record the two-state fit traded a viscous
+  coefficient of 203 N s/m for ``Fs`` 10.9 N, ``Fc`` 59.8 N; docs/diagnosis.md), unless the
+  contact is velocity-strengthening.
+
 `steady_state` is also the static curve a report can draw: the force the whole model
 (effects included, e.g. an offset) reaches after sliding at constant speed.
 """
@@ -128,7 +134,23 @@ def plausibility(model, t, x, v, F) -> list[str]:
             f"duration ({stroke_time:.3g} s): the lag acts as a memory of the motion and can "
             "take up slow effects (drift, warm-up, a position-dependent load)")
     flags += _steady_flags(model, t, x, v, pred, level, stroke)
-    return flags
+    return flags + _curve_flags(model)
+
+
+def _curve_flags(model) -> list[str]:
+    """A Stribeck curve that rises with speed (module docstring)."""
+    curve = getattr(model, "stribeck", None)
+    if curve is None or not hasattr(curve, "Fs") or not hasattr(curve, "Fc"):
+        return []
+    Fs, Fc = float(curve.Fs), float(curve.Fc)
+    if not Fs < 0.9 * Fc:
+        return []
+    sigma2 = getattr(model, "sigma2", None)
+    viscous = "" if sigma2 is None else f" (its viscous coefficient: {float(sigma2):.4g} N s/m)"
+    return [f"the friction curve rises with speed (Fs {Fs:.4g} N at rest, Fc {Fc:.4g} N "
+            f"sliding): over the measured speeds it can stand in for viscous friction or a "
+            f"drag{viscous}; read its values with care unless the contact is "
+            "velocity-strengthening"]
 
 
 def _steady_flags(model, t, x, v, pred, level, stroke):

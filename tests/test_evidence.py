@@ -96,6 +96,18 @@ def test_steady_state_is_the_models_own_curve_with_its_effects():
     np.testing.assert_allclose(got, curve + 0.5 + 0.15, rtol=1e-6, atol=1e-6 * float(s.Fs))
 
 
+def test_plausibility_flags_a_friction_curve_that_rises_with_speed():
+    t, x, v = _motion(n=3000)
+    good = jaxfric.paper.two_state()
+    F = np.asarray(jaxfric.simulate(good, t, x, v))
+    s = good.stribeck
+    rising = eqx.tree_at(lambda m: (m.stribeck.Fs, m.stribeck.Fc), good,
+                         (s.Fc, s.Fs))  # Fs and Fc swapped: rises from Fc to Fs
+    flags = plausibility(rising, t, x, v, F)
+    assert any("rises with speed" in f for f in flags), flags
+    assert not any("rises with speed" in f for f in plausibility(good, t, x, v, F))
+
+
 def test_plausibility_flags_a_lag_that_acts_as_memory():
     t, x, v = _motion(n=3000)
     good = jaxfric.paper.two_state()
