@@ -258,20 +258,38 @@ def main(argv=None) -> int:
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()
+
+    def save(complete: bool) -> dict:
+        # Written after every file ("complete": false until the end), so that a run cut
+        # off (a crashed worker, a machine shut down) keeps what it had done.
+        out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                           "python": sys.version.split()[0]},
+               "quick": args.quick, "complete": complete,
+               "seconds": time.perf_counter() - t0, "summary": summarise(rows),
+               "by_truth": {truth: summarise([r for r in rows if r["truth"] == truth])
+                            for truth in dict.fromkeys(r["truth"] for r in rows)},
+               "files": rows}
+        tmp = Path(args.json).with_suffix(".json.partial")
+        tmp.write_text(json.dumps(out, indent=2) + "\n")
+        tmp.replace(args.json)
+        return out
+
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for k, row in enumerate(pool.map(run_case, todo), start=1):
             rows.append(row)
             print(f"[{k}/{len(todo)} {time.perf_counter() - t0:6.0f} s] {row['truth']} "
                   f"{' + '.join(row['hidden']) or '(clean)'}: added "
                   f"{' + '.join(row['added']) or 'nothing'}", flush=True)
-    summary = summarise(rows)
-    print_table(rows, summary)
-    out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
-                       "python": sys.version.split()[0]},
-           "quick": args.quick, "seconds": time.perf_counter() - t0, "summary": summary,
-           "files": rows}
+            save(complete=False)
+    out = save(complete=True)
+    print_table(rows, out["summary"])
+    if len(out["by_truth"]) > 1:
+        for truth, part in out["by_truth"].items():
+            print(f"\n{truth}: " + ", ".join(
+                f"{k} {round(v, 3) if isinstance(v, float) else v}" for k, v in part.items()
+                if k in ("single_right_first", "single_right_first_not_absorbed",
+                         "pairs_both_found", "effects_added_on_clean")))
     print("\n" + markdown(rows))
-    Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     print(f"\nwrote {args.json}")
     return 0
 

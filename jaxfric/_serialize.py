@@ -22,6 +22,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from ._atomic import write_text
 from ._models._base import AbstractFrictionModel
 from ._shapes import AbstractShape
 from ._stribeck import Stribeck
@@ -109,7 +110,7 @@ def save_model(model: AbstractFrictionModel, path) -> None:
     `path`."""
     text = json.dumps({"format": FORMAT, "model": model_to_dict(model)}, indent=2,
                       allow_nan=False)
-    Path(path).write_text(text + "\n")
+    write_text(path, text + "\n")
 
 
 def load_model(source) -> AbstractFrictionModel:

@@ -72,6 +72,7 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     printed = _run("diagnosis_bench.py", "--quick", "--only", "offset", "--json", out)
     data = json.loads(out.read_text())
     assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
+    assert data["complete"] and list(data["by_truth"]) == ["gms_power"]
     assert "confusion" in printed and data["summary"]["singles"] == 1
     # The clean twin (same motion and noise, no offset) fits better than the file with it.
     row = data["files"][1]

@@ -9,12 +9,13 @@ import tempfile
 import time
 from pathlib import Path
 
+import equinox as eqx
 import numpy as np
 import pytest
 
 import jaxfric
 from fitting.cli import _output
-from jaxfric import paper
+from jaxfric import _atomic, paper
 
 
 def _run(*args, **kw):
@@ -68,6 +69,28 @@ def test_atomic_file_leaves_the_target_alone_when_interrupted(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]  # no temp file left
 
 
+@pytest.mark.parametrize("write", [
+    lambda m, folder: jaxfric.save_model(m, folder / "model.json"),
+    lambda m, folder: jaxfric.export.to_c(m, folder),
+    lambda m, folder: jaxfric.export.to_mujoco(m, folder / "model.xml"),
+])
+def test_the_librarys_writers_leave_old_files_alone_when_interrupted(tmp_path, monkeypatch,
+                                                                      write):
+    """`save_model`, `to_c` and `to_mujoco` write through `jaxfric._atomic` too: a write
+    cut off before its rename leaves the old files whole and no temporary file behind."""
+    write(paper.lugre(), tmp_path)  # the one model every writer takes (MuJoCo: LuGre)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def cut(*_):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", cut)
+    with pytest.raises(KeyboardInterrupt):
+        write(eqx.tree_at(lambda m: m.sigma0, paper.lugre(), 2 * paper.lugre().sigma0),
+              tmp_path)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 def test_writes_do_not_follow_a_planted_symlink(tmp_path):
     victim = tmp_path / "victim"
     victim.write_text("precious")
@@ -78,7 +101,7 @@ def test_writes_do_not_follow_a_planted_symlink(tmp_path):
     _output.write_json(target, {"a": 1.0})
     assert victim.read_text() == "precious"
     assert json.loads(target.read_text()) == {"a": 1.0}
-    assert oct(target.stat().st_mode & 0o777) == oct(0o666 & ~_output._umask())
+    assert oct(target.stat().st_mode & 0o777) == oct(0o666 & ~_atomic._umask())
 
 
 def test_json_is_rfc8259_with_null_for_undefined_values(tmp_path):

@@ -8,24 +8,17 @@ through a private temporary file in the target's folder (created with O_EXCL by
 file), flushes and fsyncs it, and renames it over the target; on any exit before that,
 Ctrl-C and SIGTERM included (see `fitting.cli.main`), the temporary file is removed and
 the target is untouched (`remove_pending` does it for a process ended at once by
-`fitting.cli._interrupt`). The finished file gets the usual permissions (0666 less the
-umask), as a plain ``open`` would give it.
+`fitting.cli._interrupt`). Both live in `jaxfric._atomic`, which the library's own
+writers use too.
 """
 
-import contextlib
 import json
 import math
 import os
-import tempfile
 from pathlib import Path
 
+from jaxfric._atomic import atomic_file, remove_pending  # noqa: F401 (re-exported)
 from jaxfric.data import DataError
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _unreachable(option: str, path: Path, error: OSError) -> DataError:
@@ -74,41 +67,6 @@ def _check_folder(folder: Path, option: str) -> Path:
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise DataError(f"{option} {folder}: cannot write in {existing} (permission denied)")
     return folder
-
-
-#: Temporary files of the `atomic_file`s being written (for `remove_pending`).
-_pending: set[str] = set()
-
-
-@contextlib.contextmanager
-def atomic_file(path, mode: str = "w"):
-    """``with atomic_file(path) as f: f.write(...)``: `path` holds the whole new content
-    afterwards, or is unchanged if anything fails or is interrupted before the end."""
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    _pending.add(tmp)
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, mode) as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-    finally:
-        _pending.discard(tmp)
-
-
-def remove_pending() -> None:
-    """Remove the temporary files of the `atomic_file`s still being written: for a process
-    about to end without unwinding (`fitting.cli._interrupt`). Their targets are left as
-    they were (or as just renamed, whole)."""
-    for tmp in list(_pending):
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
 
 
 def _finite_or_null(obj):

@@ -18,6 +18,7 @@ takes the model as it is (m, N); a ``hinge`` joint reads its numbers as rad and 
 import math
 from pathlib import Path
 
+from .._atomic import write_text
 from .._models.lugre import LuGre
 from ..effects import Cogging, Viscous, WithEffects
 from ._parts import ExportError
@@ -102,6 +103,4 @@ def to_mujoco(model, path, joint: str = "slide", timestep: float = 1e-3) -> Path
 
         model = load_model(model)
     text = mjcf(model, joint, timestep)
-    out = Path(path)
-    out.write_text(text)
-    return out
+    return write_text(path, text)

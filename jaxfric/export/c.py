@@ -19,6 +19,7 @@ checks it against `simulate`.
 
 from pathlib import Path
 
+from .._atomic import write_text
 from .._models._base import AbstractFrictionModel
 from ..effects import WithEffects
 from ._effects_c import effect_part
@@ -165,5 +166,5 @@ def to_c(model, directory) -> tuple[Path, Path]:
     folder.mkdir(parents=True, exist_ok=True)
     paths = folder / HEADER_NAME, folder / SOURCE_NAME
     for path, text in zip(paths, (header, source)):
-        path.write_text(text)
+        write_text(path, text)
     return paths

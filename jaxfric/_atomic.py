@@ -1,0 +1,65 @@
+"""Files written whole or not at all.
+
+`atomic_file` writes through a private temporary file in the target's folder (created with
+O_EXCL by `tempfile.mkstemp`, so it never follows a planted symlink or overwrites someone
+else's file), flushes and fsyncs it, and renames it over the target; on any exit before
+that, Ctrl-C included, the temporary file is removed and the target is untouched
+(`remove_pending` does it for a process ended at once, as `fitting.cli._interrupt` does).
+The finished file gets the usual permissions (0666 less the umask), as a plain ``open``
+would give it. Every file the library writes (`jaxfric.save_model`,
+`jaxfric.export.to_c`, `jaxfric.export.to_mujoco`) and every output of the command line
+goes through it.
+"""
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Temporary files of the `atomic_file`s being written (for `remove_pending`).
+_pending: set[str] = set()
+
+
+@contextlib.contextmanager
+def atomic_file(path, mode: str = "w"):
+    """``with atomic_file(path) as f: f.write(...)``: `path` holds the whole new content
+    afterwards, or is unchanged if anything fails or is interrupted before the end."""
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    _pending.add(tmp)
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, mode) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+    finally:
+        _pending.discard(tmp)
+
+
+def write_text(path, text: str) -> Path:
+    """`text` to `path`, atomically (`atomic_file`); returns the path."""
+    with atomic_file(path) as f:
+        f.write(text)
+    return Path(path)
+
+
+def remove_pending() -> None:
+    """Remove the temporary files of the `atomic_file`s still being written: for a process
+    about to end without unwinding. Their targets are left as they were (or as just
+    renamed, whole)."""
+    for tmp in list(_pending):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
