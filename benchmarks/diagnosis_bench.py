@@ -274,7 +274,10 @@ def main(argv=None) -> int:
         tmp.replace(args.json)
         return out
 
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+    # A fresh worker for every file: each diagnosis compiles its own functions (about a
+    # hundred), and a worker that kept them all ran out of memory maps ("LLVM ERROR: Unable
+    # to allocate section memory") after about 14 files.
+    with ProcessPoolExecutor(max_workers=args.jobs, max_tasks_per_child=1) as pool:
         for k, row in enumerate(pool.map(run_case, todo), start=1):
             rows.append(row)
             print(f"[{k}/{len(todo)} {time.perf_counter() - t0:6.0f} s] {row['truth']} "

@@ -67,6 +67,32 @@ def _regress(resid, train, *blocks):
     return resid - A @ coef, coef
 
 
+def _regress_bounded(resid, train, J, blocks):
+    """`_regress` on the model's Jacobian `J` and effect `blocks` (``(unit columns, scale,
+    name)`` each), with every effect's coefficients held within its physical range
+    (`_BOUNDS`: a drag, a mass, a Stribeck hump are not negative), as the single screen
+    holds them: coefficients outside are clipped to the bound and fixed there, the rest
+    refitted, until none is outside. Without it, two effects regressed together can be
+    credited for what one of them does with the wrong sign (a negative drag next to a
+    mass error). Returns what is left of `resid` and each block's natural coefficients."""
+    held: dict[int, np.ndarray] = {}
+    while True:
+        free = [k for k in range(len(blocks)) if k not in held]
+        r = resid - sum((blocks[k][0] @ (held[k] * blocks[k][1]) for k in held),
+                        np.zeros_like(resid))
+        new, coef = _regress(r, train, J, *(blocks[k][0] for k in free))
+        coef, w = coef[J.shape[1]:], {}
+        for k in free:
+            q = blocks[k][0].shape[1]
+            w[k], coef = coef[:q] / blocks[k][1], coef[q:]
+        out = {k: np.clip(w[k], *_BOUNDS[blocks[k][2]]) for k in free
+               if blocks[k][2] in _BOUNDS and np.any((w[k] < _BOUNDS[blocks[k][2]][0])
+                                                     | (w[k] > _BOUNDS[blocks[k][2]][1]))}
+        if not out:
+            return new, [held[k] if k in held else w[k] for k in range(len(blocks))]
+        held.update(out)
+
+
 def _normalised_columns(candidates, model, t, x, v, train, load=None):
     """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
     the training samples: a list of ``(columns, scale)``."""
@@ -85,11 +111,12 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, m
     lead = [c for c in candidates[:3] if c.score >= min_score]
     if len(lead) < 2:
         return
-    cols = [B for B, _ in _normalised_columns(lead, model, t, x, v, train, load)]
+    cols = [(B, scale, c.name) for (B, scale), c in
+            zip(_normalised_columns(lead, model, t, x, v, train, load), lead)]
 
-    full, _ = _regress(resid, train, J, *cols)
+    full, _ = _regress_bounded(resid, train, J, cols)
     for i, c in enumerate(lead):
-        without, _ = _regress(resid, train, J, *cols[:i], *cols[i + 1:])
+        without, _ = _regress_bounded(resid, train, J, cols[:i] + cols[i + 1:])
         ev = evidence(without, full, test, v)
         if not c.significant and ev.t >= min_t:
             others = ", ".join(o.name for o in lead if o is not c)
@@ -121,11 +148,11 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
     than either."""
     if len(candidates) < 2:
         return []
-    cols = _normalised_columns(candidates, model, t, x, v, train, load)
+    cols = [(B, scale, c.name) for (B, scale), c in
+            zip(_normalised_columns(candidates, model, t, x, v, train, load), candidates)]
 
     def solve(used):
-        new, coef = _regress(resid, train, J, *(cols[i][0] for i in used))
-        return new, coef[J.shape[1]:]
+        return _regress_bounded(resid, train, J, [cols[i] for i in used])
 
     def sse(r):
         return float(np.sum(r[test] ** 2))
@@ -135,9 +162,7 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
     alone = [sse(solve((i,))[0]) for i in range(len(candidates))]
     pairs = []
     for i, j in itertools.combinations(range(len(candidates)), 2):
-        full, coef = solve((i, j))
-        q = cols[i][0].shape[1]
-        w_i, w_j = coef[:q] / cols[i][1], coef[q:] / cols[j][1]
+        full, (w_i, w_j) = solve((i, j))
         pairs.append(_Pair(
             score=(sse(ref) - sse(full)) / norm,
             candidates=(candidates[i], candidates[j]),

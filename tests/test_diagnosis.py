@@ -24,9 +24,11 @@ import functools
 import pathlib
 
 import equinox as eqx
+import numpy as np
 import pytest
 
 import fitting
+import jaxfric.paper
 from jaxfric.examples import hidden_effect_measurement, HIDDEN_EFFECTS
 
 
@@ -91,6 +93,44 @@ def test_hidden_cogging_found_added_and_error_falls():
     period = float(d.model.effects[0].period)
     assert abs(period / 1.7e-3 - 1.0) < 0.02
     assert c.code.startswith("model + jaxfric.effects.Cogging(")
+
+
+def test_viscous_is_screened_only_when_the_models_own_is_held():
+    """A viscous term next to a free, positive sigma2 enlarges nothing: not a default
+    candidate then; with sigma2 held (`fixed`) it is one."""
+    from fitting._diagnose import _contained, effect_names
+
+    model = fitting.to_fit_representation(jaxfric.paper.two_state())
+    assert _contained(model, ()) == {"viscous"}
+    assert _contained(model, ("sigma2",)) == set()
+    names = effect_names(None, _contained(model, ()), rotary=False)
+    assert "viscous" not in names and "quadratic_drag" in names
+    assert "viscous" in effect_names(None, _contained(model, ("sigma2",)), rotary=False)
+
+
+def test_effects_screened_together_keep_their_physical_signs():
+    """Two effects regressed together (pairs, the joint check) are held in their physical
+    range as a single screen is: a drag that would fit with a negative coefficient is held
+    at 0 and the other effect refitted alone, not credited with what the wrong sign does."""
+    from fitting._screen import _regress, _regress_bounded
+
+    rng = np.random.default_rng(0)
+    n = 400
+    train = np.arange(n) % 3 != 0
+    J = np.ones((n, 1))
+    drag, mass = rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
+    resid = -2.0 * drag[:, 0] + 3.0 * mass[:, 0] + 0.01 * rng.normal(size=n)
+    blocks = [(drag, np.array([1.0]), "quadratic_drag"),
+              (mass, np.array([1.0]), "inertia")]
+    left, (w_drag, w_mass) = _regress_bounded(resid, train, J, blocks)
+    assert w_drag[0] == 0.0 and abs(w_mass[0] - 3.0) < 0.3
+    only_mass, _ = _regress(resid, train, J, mass)
+    np.testing.assert_allclose(left, only_mass, atol=1e-12)
+    # The other way round the mass is held at 0, and the drag is the plain least squares
+    # without it.
+    _, (w_drag, w_mass) = _regress_bounded(-resid, train, J, blocks)
+    _, coef = _regress(-resid, train, J, drag)
+    assert w_mass[0] == 0.0 and w_drag[0] == pytest.approx(coef[1], rel=1e-12)
 
 
 # Slow (about two minutes): the pair screen's refits; the pairs run with -m slow.
