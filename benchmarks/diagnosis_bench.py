@@ -241,6 +241,25 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def markdown_by_truth(rows: list[dict]) -> str:
+    """One row per hidden effect(s), one column per truth: what was named (in order), and
+    the held-out RMSE before -> after; for docs/diagnosis.md."""
+    truths = list(dict.fromkeys(r["truth"] for r in rows))
+    keys = list(dict.fromkeys(tuple(r["hidden"]) for r in rows))
+    lines = ["| hidden | " + " | ".join(truths) + " |", "|---" * (len(truths) + 1) + "|"]
+    for key in keys:
+        cells = []
+        for truth in truths:
+            r = next((r for r in rows if r["truth"] == truth and tuple(r["hidden"]) == key),
+                     None)
+            cells.append("" if r is None else
+                         f"{', '.join(r['added']) or 'nothing'} "
+                         f"({r['rmse_holdout_before']:.3f} -> {r['rmse_holdout_after']:.3f}) "
+                         f"{_verdict(r)}")
+        lines.append(f"| {' + '.join(key) or '(clean)'} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
@@ -293,6 +312,8 @@ def main(argv=None) -> int:
                 if k in ("single_right_first", "single_right_first_not_absorbed",
                          "pairs_both_found", "effects_added_on_clean")))
     print("\n" + markdown(rows))
+    if len(out["by_truth"]) > 1:
+        print("\n" + markdown_by_truth(rows))
     print(f"\nwrote {args.json}")
     return 0
 

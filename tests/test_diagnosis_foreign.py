@@ -2,7 +2,9 @@
 not fit (`jaxfric.synthetic`: a 60-element GMS with a power-law virgin curve and its own
 Stribeck curve, positions quantised to a 0.05 um encoder, 0.03 N of noise, 10 ms sampling,
 only t, x, F in the file), diagnosed as a user would, from the two-state model with
-velocities by central difference.
+velocities by central difference; the clean file and the single effects also from the
+bench's two other truths (a LuGre with stiff bristles, a two-state model with a power-law
+presliding curve).
 
 Each case is one file of `benchmarks/diagnosis_bench.py --quick`; its table is in
 docs/diagnosis.md. The cases the diagnosis gets wrong today are strict xfails with what
@@ -131,3 +133,49 @@ def test_the_effect_found_does_not_depend_on_the_base_model(name):
     seed = SINGLES[name]
     named = {kind: run_from(kind, (name,), seed).final.added for kind in ("gms", "two-state")}
     assert all(added and added[0] == name for added in named.values()), named
+
+
+# Other truths (the bench's second and third): a LuGre with stiff bristles and a two-state
+# model with a power-law presliding curve, the same motions, encoder, noise and sampling.
+OTHER_TRUTHS = ("lugre", "two_state_power")
+
+#: (truth, hidden effect) -> what the diagnosis does instead (from the bench's last run).
+OTHER_FAILURES: dict[tuple[str, str], str] = {
+    ("lugre", "quadratic_drag"): "nothing is added: the base model absorbs the drag "
+                                  "(held-out RMSE within 10 % of the clean twin's)",
+    ("lugre", "inertia"): "nothing is added: the mass error scores 13.5 % (t about 2.3), "
+                          "behind a Stribeck hump (17.7 %, t about 2.9), neither significant",
+    ("lugre", "drift"): "nothing is added: the drift is ranked first (52 %, t about 4.3) "
+                        "but its joint refit removes only 7 % (t about 0.3)",
+    ("lugre", "friction_lag"): "nothing is added: its refit removes 20 % of the held-out SSE "
+                               "with t about 2.8 (needs 3)",
+    ("two_state_power", "asymmetry"): "the offset is named first: both refits hold up "
+                                      "(87 % and 92 % removed), the difference is not "
+                                      "significant and the offset's screen is a little more "
+                                      "consistent (t 6.6 against 6.5); the asymmetry follows",
+}
+
+
+@functools.cache
+def run_truth(truth: str, hidden: tuple[str, ...], seed: int):
+    t, x, F = measurement(truth, hidden, noise=0.03, dt=1e-2, seed=seed)
+    start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
+    return fitting.diagnose(start, t, x, F, model_name="two-state")
+
+
+@pytest.mark.parametrize("truth", OTHER_TRUTHS)
+def test_clean_file_of_another_truth_gets_nothing_added(truth):
+    d = run_truth(truth, (), 0)
+    assert d.final.added == [], d.summary()
+
+
+@pytest.mark.parametrize(("truth", "name"), [(tr, n) for tr in OTHER_TRUTHS for n in SINGLES])
+def test_hidden_effect_on_another_truth_is_named_first(truth, name, request):
+    reason = OTHER_FAILURES.get((truth, name))
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    d = run_truth(truth, (name,), SINGLES[name])
+    assert d.final.added and d.final.added[0] == name, d.summary()
+    clean = run_truth(truth, (), 0)
+    excess = d.baseline.rmse_holdout - clean.final.rmse_holdout
+    assert d.baseline.rmse_holdout - d.final.rmse_holdout >= 0.5 * excess, d.summary()
