@@ -149,3 +149,13 @@ def test_interrupt_latency_runs_and_writes_json(tmp_path):
     (row,) = data["rows"]
     assert row["exit"] == 130 and row["one_line"] and row["left"] == [], row
     assert data["summary"]["runs_with_expected_exit"] == 1 and "median" in printed
+
+
+def test_diagnose_speed_runs_and_writes_json(tmp_path):
+    out = tmp_path / "speed.json"
+    printed = _run("diagnose_speed.py", "--sizes", "1500", "--json", out)
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["cache"] for r in rows] == ["empty", "filled"]
+    assert all(abs(r["samples"] - 1500) <= 15 and r["wall_s"] > 0 for r in rows)
+    assert all(0 < r["diagnosis_s"] <= r["wall_s"] for r in rows)
+    assert "wall [s]" in printed
