@@ -4,8 +4,9 @@ Two layouts are recognised (`joint_layout`):
 
 - **wide**: numbered columns per joint beside one time column, in the robotics names
   ``q1..qN`` (angle), ``dq1..dqN`` (velocity), ``ddq1..ddqN`` (acceleration), ``tau1..tauN``
-  (friction torque), ``tau_u1..tau_uN`` (drive torque), or the standard names numbered
-  (``x1``, ``v1``, ``F1``, ``u1``, ``a1``); a unit may follow each (``q1[deg]``);
+  (friction torque), ``tau_u1..tau_uN`` (drive torque), ``load1..loadN`` (each joint's
+  transmitted load, for load-dependent friction), or the standard names numbered (``x1``,
+  ``v1``, ``F1``, ``u1``, ``a1``); a unit may follow each (``q1[deg]``);
 - **long**: a numeric ``joint`` column beside the standard columns, one row per sample of
   one joint (the joints' rows may interleave; each joint's time must increase).
 
@@ -20,10 +21,10 @@ import numpy as np
 
 #: Numbered column prefix -> standard column.
 PREFIX = {"q": "x", "dq": "v", "ddq": "a", "tau": "F", "tau_u": "u",
-          "x": "x", "v": "v", "a": "a", "F": "F", "u": "u"}
+          "x": "x", "v": "v", "a": "a", "F": "F", "u": "u", "load": "load"}
 #: Prefixes that say "a robot joint": rotary unless the units say otherwise.
 ROTARY_PREFIXES = frozenset({"q", "dq", "ddq", "tau", "tau_u"})
-_NUMBERED = re.compile(r"^(q|dq|ddq|tau_u|tau|x|v|a|F|u)(\d+)$")
+_NUMBERED = re.compile(r"^(q|dq|ddq|tau_u|tau|x|v|a|F|u|load)(\d+)$")
 JOINT_COLUMN = "joint"
 
 

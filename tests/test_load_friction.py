@@ -172,3 +172,28 @@ def test_cli_simulate_reads_the_load_column_and_names_a_missing_one(tmp_path):
             tmp_path / "s2.csv")
     assert r.returncode == 2
     assert "load_friction" in r.stderr and "'load' column" in r.stderr
+
+
+def test_each_joint_of_a_robot_log_reads_its_own_load_column(tmp_path):
+    """``load1..loadN`` beside ``q1..qN``/``tau1..tauN``: each joint gets its own load (in
+    the file's unit), and the command line simulates each joint with it."""
+    from .test_cli import run
+
+    t, x, L1 = _motion(seed=1, n=400)
+    L2 = 3.0 * L1[::-1]
+    model = paper.tustin() + fx.LoadFriction(k_load=0.03)
+    F1, F2 = (np.asarray(jaxfric.simulate(model, t, x, load=L)) for L in (L1, L2))
+    jaxfric.save_model(model, tmp_path / "model.json")
+    path = tmp_path / "robot.csv"
+    np.savetxt(path, np.column_stack([t, x, x, F1, F2, L1, L2]), delimiter=",",
+               header="t[s],q1[rad],q2[rad],tau1[N m],tau2[N m],load1[N m],load2[N m]",
+               comments="", fmt="%.17g")
+    joints = jaxfric.data.load_joints(path)
+    assert [m.unit("load") for m in joints.values()] == ["N m", "N m"]
+    np.testing.assert_array_equal(joints["joint 2"].load, L2)
+    r = run("simulate", path, "--params", tmp_path / "model.json", "--derivatives",
+            "backward", "--deadband", "0", "--out", tmp_path / "s.csv")
+    assert r.returncode == 0, r.stderr
+    sim = np.genfromtxt(tmp_path / "s.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(sim["F_model1N_m"], F1, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(sim["F_model2N_m"], F2, rtol=1e-12, atol=1e-12)
