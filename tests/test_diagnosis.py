@@ -133,6 +133,27 @@ def test_effects_screened_together_keep_their_physical_signs():
     assert w_mass[0] == 0.0 and w_drag[0] == pytest.approx(coef[1], rel=1e-12)
 
 
+def test_a_drift_stays_slow_in_the_diagnosis_refits():
+    """The refits hold a drift's settling rate to the screen's range (settling times from a
+    tenth of the record): a drift cannot turn into a start-up transient."""
+    from fitting._diagnose import _refit_props
+    from fitting._params import leaf_names, props_leaves
+    from fitting._transforms import Sigmoid
+    from jaxfric import effects as fx
+
+    t = np.linspace(0.0, 100.0, 1001)
+    base = jaxfric.paper.two_state()
+    assert _refit_props(base, t) is None
+    for decay, bounded in ((0.0, True), (0.1, True), (2.0, False)):  # 2/s: a user's own
+        model = base + fx.Drift(drift_rate=0.01, drift_decay=decay)
+        props = _refit_props(model, t)
+        names = leaf_names(fitting.to_fit_representation(model))
+        transform = props_leaves(props)[names.index("drift_decay")].transform
+        assert isinstance(transform, Sigmoid) == bounded
+        if bounded:
+            assert (transform.low, transform.high) == (-0.01, 0.105)
+
+
 # Slow (about two minutes): the pair screen's refits; the pairs run with -m slow.
 @pytest.mark.slow
 def test_two_hidden_effects_both_found():
