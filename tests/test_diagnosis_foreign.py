@@ -145,8 +145,6 @@ OTHER_FAILURES: dict[tuple[str, str], str] = {
                                   "(held-out RMSE within 10 % of the clean twin's)",
     ("lugre", "inertia"): "nothing is added: the mass error scores 13.5 % (t about 2.3), "
                           "behind a Stribeck hump (17.7 %, t about 2.9), neither significant",
-    ("lugre", "drift"): "nothing is added: the drift is ranked first (52 %, t about 4.3) "
-                        "but its joint refit removes only 7 % (t about 0.3)",
     ("lugre", "friction_lag"): "nothing is added: its refit removes 20 % of the held-out SSE "
                                "with t about 2.8 (needs 3)",
     ("two_state_power", "asymmetry"): "the offset is named first: both refits hold up "
