@@ -34,7 +34,8 @@ significantly lower held-out error decides, else the more consistent screen), ev
 is refitted jointly on the training set (twice: from the fitted model, and from the
 starting model with the effects, which is not bent by the missing effect; the better
 training fit is kept, and a fit that stops at its step limit is restarted while that still
-lowers its error by more than 1 %, up to five times),
+lowers its error by more than 1 %, up to five times; a drift's settling time held to the
+range the screen searched, `_refit_props`),
 and the ranking repeats on the new residual until nothing significant is left. The
 held-out RMSE after each addition is reported; an addition whose refit removes less than
 ``min_score/2`` of the held-out SSE is undone and marked not significant, and the next
