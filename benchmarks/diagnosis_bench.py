@@ -31,7 +31,9 @@ was found (targets: >= 90 %, >= 80 %, 0, >= 50 %). A hidden effect that raises t
 baseline's held-out error by less than 10 % over that clean twin is marked "absorbed" (the
 base model's own viscous term or lag took it up; little is left to find), and the share
 named first is also given without those files.
-JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or --json).
+JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or --json);
+``--update JSON`` re-runs only the files selected (``--only``, ``--truths``) into an
+earlier run, for a change that can only affect those (its ``"rerun"`` lists them).
 The full bench (3 truths x 2 noise levels x 2 rates x 14 files) takes hours on two cores;
 ``--quick`` runs one truth, one noise level and one rate (14 files). The files are made by
 `jaxfric.synthetic.measurement`.
@@ -260,6 +262,16 @@ def markdown_by_truth(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
+    """`files` with the rows of the same file (truth, hidden, noise, sampling) as in `new`
+    replaced by those."""
+    def key(r):
+        return r["truth"], tuple(r["hidden"]), r["noise"], r["dt"]
+
+    fresh = {key(r): r for r in new}
+    return [fresh.get(key(r), r) for r in files]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
@@ -269,6 +281,10 @@ def main(argv=None) -> int:
     ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
     ap.add_argument("--truths", help=f"comma-separated truths (default: {', '.join(TRUTHS)}; "
                     "--quick: the first)")
+    ap.add_argument("--update", metavar="JSON",
+                    help="re-run only these files (with --only, --truths) and write JSON: the "
+                    "run in this JSON with their rows replaced, summaries recomputed, and "
+                    "'rerun' saying which files (for a change that can only affect some)")
     args = ap.parse_args(argv)
     todo = cases(args.quick, args.truths.split(",") if args.truths else None)
     if args.only:
@@ -278,16 +294,23 @@ def main(argv=None) -> int:
           flush=True)
     rows, t0 = [], time.perf_counter()
 
+    base = json.loads(Path(args.update).read_text()) if args.update else None
+
     def save(complete: bool) -> dict:
         # Written after every file ("complete": false until the end), so that a run cut
         # off (a crashed worker, a machine shut down) keeps what it had done.
+        files = rows if base is None else _replaced(base["files"], rows)
         out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
                            "python": sys.version.split()[0]},
                "quick": args.quick, "complete": complete,
-               "seconds": time.perf_counter() - t0, "summary": summarise(rows),
-               "by_truth": {truth: summarise([r for r in rows if r["truth"] == truth])
-                            for truth in dict.fromkeys(r["truth"] for r in rows)},
-               "files": rows}
+               "seconds": time.perf_counter() - t0, "summary": summarise(files),
+               "by_truth": {truth: summarise([r for r in files if r["truth"] == truth])
+                            for truth in dict.fromkeys(r["truth"] for r in files)},
+               "files": files}
+        if base is not None:
+            out["seconds"] = base["seconds"]
+            out["rerun"] = {"files": [[r["truth"], r["hidden"]] for r in rows],
+                            "seconds": time.perf_counter() - t0}
         tmp = Path(args.json).with_suffix(".json.partial")
         tmp.write_text(json.dumps(out, indent=2) + "\n")
         tmp.replace(args.json)
@@ -304,6 +327,7 @@ def main(argv=None) -> int:
                   f"{' + '.join(row['added']) or 'nothing'}", flush=True)
             save(complete=False)
     out = save(complete=True)
+    rows = out["files"]
     print_table(rows, out["summary"])
     if len(out["by_truth"]) > 1:
         for truth, part in out["by_truth"].items():

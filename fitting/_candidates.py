@@ -22,6 +22,11 @@ def _signals(t, x, v, base, static, load=None):
                       load=None if load is None else jnp.asarray(load))
 
 
+#: The shortest settling time of a drift is the record's duration over this: the screen's
+#: grid starts there, and the diagnosis's refits hold the drift to it (`fitting._diagnose`).
+DRIFT_SPAN_RATIO = 10
+
+
 def _grid(name, t, x, v, F):
     """Instances of effect `name` to screen: unit linear parameters, a grid over the
     nonlinear ones (SI)."""
@@ -43,7 +48,7 @@ def _grid(name, t, x, v, F):
     if name == "drift":  # linear (wear), or settling (a warm-up) over a tenth to twice the record
         span = max(float(t[-1] - t[0]), 1e-9)
         return [fx.Drift(drift_rate=1.0, drift_decay=d)
-                for d in (0.0, *(1.0 / np.geomspace(span / 10, 2 * span, 10)))]
+                for d in (0.0, *(1.0 / np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)))]
     if name == "friction_lag":
         span = t[-1] - t[0]
         taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)

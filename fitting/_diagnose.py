@@ -70,7 +70,7 @@ import numpy as np
 from jaxfric import effects as fx
 
 from . import _params
-from ._candidates import _code, Candidate
+from ._candidates import _code, Candidate, DRIFT_SPAN_RATIO
 from ._derivatives import describe, estimate_velocity
 from ._evidence import convincing, evidence, needs, STRONG_SHARE
 from ._fit import fit
@@ -191,7 +191,8 @@ def _refit_props(model, t):
     if "drift_decay" not in names:
         return None
     span = max(float(t[-1] - t[0]), 1e-9)
-    low, high = -1.0 / span, 10.5 / span
+    # 5 % beyond the grid's fastest point, which a refit may start from.
+    low, high = -1.0 / span, 1.05 * DRIFT_SPAN_RATIO / span
     props = _params.default_props(fit_model)
     values = jax.tree.leaves(_params.parameters(fit_model)[0])
     # A start outside the range (a user's own drift) keeps the default, unbounded.

@@ -78,6 +78,12 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     row = data["files"][1]
     assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]
     assert data["summary"]["singles_absorbed_by_base"] == []
+    # --update re-runs the selected files into the earlier run (here: the same two).
+    again = tmp_path / "again.json"
+    _run("diagnosis_bench.py", "--quick", "--only", "offset", "--update", out, "--json", again)
+    updated = json.loads(again.read_text())
+    assert updated["rerun"]["files"] == [["gms_power", []], ["gms_power", ["offset"]]]
+    assert [f["added"] for f in updated["files"]] == [f["added"] for f in data["files"]]
 
 
 def test_c_step_runs_and_writes_json(tmp_path):
