@@ -1,5 +1,5 @@
 """The rule for nearly equal candidates (`fitting._diagnose._closest_call`): a held-out
-error that is significantly lower decides, otherwise the more consistent screen."""
+error that is significantly lower decides, otherwise the higher screen score."""
 
 from types import SimpleNamespace as NS
 
@@ -14,14 +14,14 @@ def _ctx(n):
     return NS(test=test, v_arr=np.ones(n), min_t=3.0)
 
 
-def _held(name, t_stat, resid, test):
+def _held(name, score, resid, test):
     step = NS(rmse_holdout=float(np.sqrt(np.mean(resid[test] ** 2))))
-    return NS(name=name, t_stat=t_stat), (step, resid)
+    return NS(name=name, score=score), (step, resid)
 
 
 def test_single_survivor_is_chosen():
     ctx = _ctx(30)
-    only = _held("offset", 4.0, np.ones(30), ctx.test)
+    only = _held("offset", 0.4, np.ones(30), ctx.test)
     assert _closest_call(ctx, [only])[0].name == "offset"
 
 
@@ -29,18 +29,19 @@ def test_significantly_lower_holdout_error_decides():
     n = 3000
     ctx, rng = _ctx(n), np.random.default_rng(0)
     noise = 0.1 * rng.normal(size=n)
-    good = _held("offset", 3.5, noise, ctx.test)
-    bad = _held("asymmetry", 9.0, noise + 0.5, ctx.test)  # worse everywhere, higher t
+    good = _held("offset", 0.7, noise, ctx.test)
+    bad = _held("asymmetry", 0.8, noise + 0.5, ctx.test)  # worse everywhere, higher score
     chosen, why = _closest_call(ctx, [bad, good])
     assert chosen.name == "offset" and "better" in why
 
 
-def test_indistinguishable_refits_go_to_the_more_consistent_screen():
+def test_indistinguishable_refits_go_to_the_higher_score():
     n = 3000
     ctx, rng = _ctx(n), np.random.default_rng(1)
     a = 0.1 * rng.normal(size=n)
     b = 0.1 * rng.normal(size=n)  # the same error, other noise: no significant difference
-    first = _held("offset", 3.5, a, ctx.test)
-    second = _held("asymmetry", 9.0, b, ctx.test)
-    chosen, why = _closest_call(ctx, [first, second])
-    assert chosen.name == "asymmetry" and "not significant" in why
+    for scores, name in (((0.7, 0.8), "asymmetry"), ((0.8, 0.7), "offset")):
+        first = _held("offset", scores[0], a, ctx.test)
+        second = _held("asymmetry", scores[1], b, ctx.test)
+        chosen, why = _closest_call(ctx, [first, second])
+        assert chosen.name == name and "not significant" in why
