@@ -64,33 +64,15 @@ other), and the evidence says so.
 import dataclasses
 from collections.abc import Callable, Sequence
 
-import jax
 import numpy as np
 
-from jaxfric import effects as fx
-
-from . import _params
-from ._candidates import _code, Candidate, DRIFT_SPAN_RATIO
-from ._derivatives import describe, estimate_velocity
+from ._candidates import _code, Candidate
+from ._diagnose_context import _contained, _Context, _context, effect_names, Step
 from ._evidence import convincing, evidence, needs, STRONG_SHARE
-from ._fit import fit
 from ._plausibility import plausibility
-from ._regimes import holdout_mask, regime_errors, regimes
-from ._result import FitResult, saved_model
+from ._result import saved_model
 from ._screen import _base_jacobian, _joint_check, _pair_screen, _screen
-from ._transforms import ParamProps, Sigmoid
-
-
-@dataclasses.dataclass
-class Step:
-    """After adding `added` and refitting: the fit, RMSE on all data and held out (N)."""
-
-    added: list[str]
-    fit: FitResult
-    rmse: float
-    rmse_holdout: float
-    regimes: dict
-    rel_error: float = float("nan")  # rmse / RMS of the measured force
+from ._search_copy import at_full_rate, describe as describe_search, search_context, SEARCH_SAMPLES
 
 
 @dataclasses.dataclass
@@ -118,6 +100,9 @@ class Diagnosis:
     #: "rmse_holdout_after", "removed" (share of the held-out SSE), "t", "batches",
     #: "added"}`` (``t`` None when infinite).
     trials: list[dict] = dataclasses.field(default_factory=list)
+    #: For a long record, how the effects were searched on fewer samples
+    #: (`fitting._search_copy`); empty when every sample was used throughout.
+    search: str = ""
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -144,6 +129,7 @@ class Diagnosis:
             "derivatives": self.derivatives,
             "warnings": self.warnings,
             "trials": self.trials,
+            **({"search": self.search} if self.search else {}),
             **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
@@ -154,6 +140,8 @@ class Diagnosis:
                  f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
         if self.velocity:
             lines.append(f"velocity: {self.velocity}")
+        if self.search:
+            lines.append(f"search: {self.search}")
         lines.append("candidate effects:")
         for c in self.candidates:
             mark = "*" if c.significant else " "
@@ -170,97 +158,7 @@ class Diagnosis:
         return "\n".join(lines)
 
 
-#: Most warm restarts of a refit that stops at its step limit (see `_step`).
-_RESTARTS = 5
-
-#: Most pairs of effects tried together when no single effect holds up (see `diagnose`).
 _PAIRS = 2
-
-
-def _refit_props(model, t):
-    """The fit's parameter properties for a diagnosis's fits (None: the defaults), with
-    a drift's settling rate held to about the range the screen searches
-    (`_candidates._grid`: settling times from a tenth to twice the record; here
-    ``-1/span < drift_decay < 10.5/span``: settling times from a tenth of the record, or
-    a slow growth). A drift is slow by definition; left free, a refit made it settle in
-    half a second to fit the start of a record (the first loading from rest, where the
-    model's virgin curve is not the truth's: on a LuGre-made file, +138 % in 0.54 s,
-    which removed 44 % of the training SSE and 7 % of the held-out)."""
-    fit_model = _params.to_fit_representation(model)
-    names = _params.leaf_names(fit_model)
-    if "drift_decay" not in names:
-        return None
-    span = max(float(t[-1] - t[0]), 1e-9)
-    # 5 % beyond the grid's fastest point, which a refit may start from.
-    low, high = -1.0 / span, 1.05 * DRIFT_SPAN_RATIO / span
-    props = _params.default_props(fit_model)
-    values = jax.tree.leaves(_params.parameters(fit_model)[0])
-    # A start outside the range (a user's own drift) keeps the default, unbounded.
-    leaves = [ParamProps(Sigmoid(low, high), free=p.free, scale=p.scale)
-              if n == "drift_decay" and low < float(value) < high else p
-              for p, n, value in zip(_params.props_leaves(props), names, values)]
-    return jax.tree.unflatten(jax.tree.structure(props, is_leaf=_params._is_props), leaves)
-
-
-def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=(),
-          restart=False, load=None):
-    names = _params.leaf_names(_params.to_fit_representation(model))
-    free = [n for n in names if n not in fixed] if fixed else None
-    props = _refit_props(model, t)
-    res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps, free=free,
-              load=load, props=props)
-    # A refit with a new effect starts from the screen's values, often far from its
-    # optimum; a warm restart (fresh damping) gets it unstuck more often than more steps.
-    # Restart while the fit stops at its step limit and each restart still lowers the
-    # training RMSE by more than 1 % (slow but steady fits, e.g. a friction lag of twice
-    # the nominal size, need about five rounds of 300 steps), at most `_RESTARTS` times.
-    for _ in range(_RESTARTS if restart else 0):
-        if bool(res.converged):
-            break
-        again = fit(res.model, t, x, F, v, weights=train.astype(float), max_steps=max_steps,
-                    free=free, load=load, props=props)
-        progress = float(again.rmse) < 0.99 * float(res.rmse)
-        if float(again.rmse) <= float(res.rmse):
-            res = again
-        if not progress:
-            break
-    resid = np.asarray(res.prediction) - F
-    return Step(
-        added=list(added), fit=res,
-        rmse=float(np.sqrt(np.mean(resid**2))),
-        rmse_holdout=float(np.sqrt(np.mean(resid[test] ** 2))),
-        regimes=regime_errors(resid, masks),
-        rel_error=float(np.sqrt(np.mean(resid**2) / np.mean(F**2))),
-    ), -resid
-
-
-@dataclasses.dataclass
-class _Context:
-    """What every step of one diagnosis shares: the start model, the data, the held-out
-    split and the rules."""
-
-    model: object
-    t: np.ndarray
-    x: np.ndarray
-    v: np.ndarray  # the velocity every fit and screen uses (m/s)
-    v_arr: np.ndarray  # the same
-    F: np.ndarray
-    train: np.ndarray
-    test: np.ndarray
-    block: np.ndarray
-    masks: dict
-    log: Callable[[str], None]
-    max_steps: int
-    fixed: tuple[str, ...]
-    min_score: float
-    min_t: float
-    velocity: str  # how `v` was obtained, in words
-    load: np.ndarray | None = None  # the transmitted load (N or N m), if the data have one
-
-    def step(self, model, added, restart=False):
-        return _step(model, added, self.t, self.x, self.v, self.F, self.train, self.test,
-                     self.masks, self.log, self.max_steps, self.fixed, restart=restart,
-                     load=self.load)
 
 
 @dataclasses.dataclass
@@ -486,6 +384,7 @@ def diagnose(
     log: Callable[[str], None] | None = None,
     rotary: bool = False,
     load=None,
+    search_samples: int | None = SEARCH_SAMPLES,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
     ones one at a time with a joint refit after each (see the module docstring).
@@ -504,14 +403,21 @@ def diagnose(
     `velocity_window` seconds; see `fitting._derivatives`): every fit and screen uses that
     velocity, and the effects' acceleration is its backward difference. Data made by
     `jaxfric.simulate` without a velocity want ``"backward"``; measurements want a
-    zero-phase estimate (the default).
+    zero-phase estimate (the default). `search_samples`: a record of at least twice as
+    many samples is searched on about this many (`fitting._search_copy`: the force
+    averaged over windows), and the baseline and each step refitted on all samples; None
+    or 0 searches on every sample.
     Returns a `Diagnosis`; its models are in the fit representation
     (`fitting.to_fit_representation`: a `PaperShape` appears as the equivalent
     `NormalizedPaperShape`, finite where the paper's ``a`` would overflow).
     """
-    ctx = _context(model, t, x, F, v, blocks=blocks, max_steps=max_steps, fixed=fixed,
-                   min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
-                   velocity_window=velocity_window, load=load)
+    full = _context(model, t, x, F, v, blocks=blocks, max_steps=max_steps, fixed=fixed,
+                    min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
+                    velocity_window=velocity_window, load=load)
+    ctx = search_context(full, search_samples)
+    search = describe_search(full, ctx)
+    if search:
+        ctx.log(f"a long record: {search}")
     present = {e.name for e in getattr(ctx.model, "effects", ())}
     names = effect_names(effects, present | _contained(ctx.model, ctx.fixed) if not effects
                          else present, rotary, load is not None)
@@ -537,63 +443,14 @@ def diagnose(
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
         state.best_holdout = trial.rmse_holdout
-    warnings = {"baseline": plausibility(baseline.fit.model, ctx.t, ctx.x, ctx.v, ctx.F)}
+    baseline, steps = at_full_rate(full, ctx, baseline, steps)
+    final = (steps[-1] if steps else baseline).fit.model
+    warnings = {"baseline": plausibility(baseline.fit.model, full.t, full.x, full.v, full.F)}
     if steps:
-        warnings["final"] = plausibility(state.current, ctx.t, ctx.x, ctx.v, ctx.F)
-    return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=ctx.test,
-                     model=state.current, model_name=model_name or type(ctx.model).__name__,
+        warnings["final"] = plausibility(final, full.t, full.x, full.v, full.F)
+    return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=full.test,
+                     model=final, model_name=model_name or type(ctx.model).__name__,
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},
-                     trials=state.trials,
+                     trials=state.trials, search=search,
                      derivatives=None if v is not None else {"method": derivatives,
                                                              "window_s": velocity_window})
-
-
-def _contained(model, fixed) -> set[str]:
-    """Effects the model's own free parameters already are: ``viscous`` (``c_visc * v``,
-    not negative) when the model fits its own ``sigma2`` (positive): their sum is one
-    viscous coefficient, so adding it enlarges nothing and a refit that then does better
-    has only found another optimum of the same model (seen on a LuGre-made file: a
-    viscous term and a quadratic drag of size 0 credited with 41 % of the held-out
-    residual). Screened by default only when ``sigma2`` is held with `fixed`."""
-    names = set(_params.leaf_names(model)) - set(fixed)
-    return {"viscous"} if "sigma2" in names else set()
-
-
-def effect_names(effects, present, rotary: bool, has_load: bool = False) -> list[str]:
-    """The effects a diagnosis screens: `effects` (default every effect, those of an angle,
-    `jaxfric.effects.ROTARY_EFFECTS`, only if `rotary`, those of the load,
-    `jaxfric.effects.LOAD_EFFECTS`, only if `has_load`) not in `present`. A load effect
-    asked for without a load signal raises `ValueError`."""
-    default = [n for n in fx.EFFECTS if (rotary or n not in fx.ROTARY_EFFECTS)
-               and (has_load or n not in fx.LOAD_EFFECTS)]
-    if effects and not has_load and set(effects) & set(fx.LOAD_EFFECTS):
-        raise ValueError(f"effect(s) {sorted(set(effects) & set(fx.LOAD_EFFECTS))} need the "
-                         "load signal (a 'load' column, or diagnose(..., load=...))")
-    return [n for n in (effects or default) if n not in present]
-
-
-def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,
-             derivatives, velocity_window, load=None) -> _Context:
-    """Check the inputs and set a diagnosis up (see `diagnose`)."""
-    fixed = tuple(fixed)
-    # Work in the fit representation throughout (a `PaperShape` as a `NormalizedPaperShape`):
-    # a round trip through the paper's symbols is singular for a nearly straight shape.
-    model = _params.to_fit_representation(model)
-    unknown = set(fixed) - set(_params.leaf_names(model))
-    if unknown:
-        raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
-                         f"{sorted(unknown)}; it has {_params.leaf_names(model)}")
-    t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
-    how = describe(derivatives, velocity_window, column=v is not None)
-    if v is None:
-        v = estimate_velocity(t, x, derivatives, velocity_window)
-    v = np.asarray(v, np.float64)
-    if load is not None:
-        load = np.asarray(load, np.float64)
-        if load.shape != t.shape:
-            raise ValueError(f"load has shape {load.shape}, t has {t.shape}")
-    test, block = holdout_mask(t, blocks)
-    return _Context(model=model, t=t, x=x, v=v, v_arr=v, F=F, train=~test, test=test,
-                    block=block, masks=regimes(t, x, v), log=log or (lambda *_: None),
-                    max_steps=max_steps, fixed=fixed, min_score=min_score, min_t=min_t,
-                    velocity=how, load=load)

@@ -98,7 +98,7 @@ def test_hidden_cogging_found_added_and_error_falls():
 def test_viscous_is_screened_only_when_the_models_own_is_held():
     """A viscous term next to a free, positive sigma2 enlarges nothing: not a default
     candidate then; with sigma2 held (`fixed`) it is one."""
-    from fitting._diagnose import _contained, effect_names
+    from fitting._diagnose_context import _contained, effect_names
 
     model = fitting.to_fit_representation(jaxfric.paper.two_state())
     assert _contained(model, ()) == {"viscous"}
@@ -136,7 +136,7 @@ def test_effects_screened_together_keep_their_physical_signs():
 def test_a_drift_stays_slow_in_the_diagnosis_refits():
     """The refits hold a drift's settling rate to the screen's range (settling times from a
     tenth of the record): a drift cannot turn into a start-up transient."""
-    from fitting._diagnose import _refit_props
+    from fitting._diagnose_context import _refit_props
     from fitting._params import leaf_names, props_leaves
     from fitting._transforms import Sigmoid
     from jaxfric import effects as fx

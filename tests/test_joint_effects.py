@@ -11,7 +11,7 @@ import pytest
 
 import jaxfric
 from fitting import _candidates
-from fitting._diagnose import effect_names
+from fitting._diagnose_context import effect_names
 from fitting._regimes import holdout_mask
 from fitting._screen import _base_jacobian, _screen
 from jaxfric import effects as fx, paper

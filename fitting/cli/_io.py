@@ -33,6 +33,9 @@ def check_options(args) -> None:
     steps = getattr(args, "max_steps", None)
     if steps is not None and steps < 0:
         raise _data.DataError(f"--max-steps {steps}: must be 0 or more")
+    search = getattr(args, "search_samples", None)
+    if search is not None and search < 0:
+        raise _data.DataError(f"--search-samples {search}: must be 0 (every sample) or more")
     if getattr(args, "rotary", False) and getattr(args, "kind", None) == _units.LINEAR:
         raise _data.DataError("--rotary and --kind linear contradict each other")
     window = getattr(args, "velocity_window", None)

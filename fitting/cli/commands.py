@@ -13,6 +13,7 @@ import numpy as np
 from jaxfric import data as _data, units as _units
 
 from .._fit import fit as _fit
+from .._search_copy import SEARCH_SAMPLES
 from .._start import initial_model
 from ._io import (
     cli_kind,
@@ -185,7 +186,8 @@ def diagnose_measurement(args, kind: str, m, log, report):
     if m.load is not None:
         log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
-                 log=log, rotary=m.kind == _units.ROTARY, load=m.load)
+                 log=log, rotary=m.kind == _units.ROTARY, load=m.load,
+                 search_samples=getattr(args, "search_samples", SEARCH_SAMPLES))
     d.velocity, d.derivatives, d.deadband = how, derivatives_json(m, args), deadband
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:

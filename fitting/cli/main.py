@@ -7,6 +7,8 @@ import threading
 import time
 from pathlib import Path
 
+from .._search_copy import SEARCH_SAMPLES
+
 
 DEMO_HELP = """\
 Run the built-in example end to end and write a report.
@@ -248,6 +250,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model to start from (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
+    p.add_argument("--search-samples", type=int, default=SEARCH_SAMPLES, metavar="N",
+                   help="a record of 2N samples or more: rank and try the effects on about N "
+                        "(force averaged over windows), refit on all (default: %(default)s; "
+                        "0: every sample throughout)")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
     _add_deadband_option(p, "auto; the value used is saved in --json")
     _add_derivative_options(p, default_window="none; 0.01 s for drive-force data u")
