@@ -15,9 +15,9 @@ works at 1e4-2e4 samples over a record. So when a record has at least twice
   one (k + 1 when k is even, so that it has a middle): a zero-phase boxcar that keeps the
   record's information about anything slower than the window (its noise falls by
   ``sqrt(k)``) and damps faster vibration before it aliases. The copy must still resolve
-  the effects, as any record must: a window longer than a tenth of the fastest effect's
-  period (a cogging pitch passed at top speed) attenuates it by more than 2 %, and then
-  `search_samples` should be raised (or 0: every sample);
+  the effects, as any record must: a window of a tenth of the fastest effect's period (a
+  cogging pitch passed at top speed) attenuates it by 1.6 %, of a fifth by 6.5 %; past
+  that, `search_samples` should be raised (or 0: every sample);
 - the held-out split is the same time blocks (`fitting._regimes.holdout_mask`).
 
 Then the baseline and each step's model are refitted on all samples, from where the search
