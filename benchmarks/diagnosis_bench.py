@@ -283,6 +283,37 @@ def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
     return [fresh.get(key(r), r) for r in files]
 
 
+def _by_truth(files: list[dict]) -> dict:
+    return {truth: summarise([r for r in files if r["truth"] == truth])
+            for truth in dict.fromkeys(r["truth"] for r in files)}
+
+
+def _print_all(out: dict) -> None:
+    rows = out["files"]
+    print_table(rows, out["summary"])
+    if len(out["by_truth"]) > 1:
+        for truth, part in out["by_truth"].items():
+            print(f"\n{truth}: " + ", ".join(
+                f"{k} {round(v, 3) if isinstance(v, float) else v}" for k, v in part.items()
+                if k in ("single_right_first", "single_right_first_not_absorbed",
+                         "pairs_both_found", "pairs_both_found_not_absorbed",
+                         "effects_added_on_clean")))
+    print("\n" + markdown(rows))
+    if len(out["by_truth"]) > 1:
+        print("\n" + markdown_by_truth(rows))
+
+
+def _resummarise(path: Path) -> int:
+    out = json.loads(path.read_text())
+    out["summary"], out["by_truth"] = summarise(out["files"]), _by_truth(out["files"])
+    tmp = path.with_suffix(".json.partial")
+    tmp.write_text(json.dumps(out, indent=2) + "\n")
+    tmp.replace(path)
+    _print_all(out)
+    print(f"\nsummaries recomputed in {path}")
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
@@ -302,7 +333,13 @@ def main(argv=None) -> int:
                     help="re-run only these files (with --only, --truths) and write JSON: the "
                     "run in this JSON with their rows replaced, summaries recomputed, and "
                     "'rerun' saying which files (for a change that can only affect some)")
+    ap.add_argument("--resummarise", metavar="JSON",
+                    help="run nothing: recompute the summaries of an earlier run in place "
+                    "(after a change to the summary's measures) and print its tables")
     args = ap.parse_args(argv)
+    if args.resummarise:
+        return _resummarise(Path(args.resummarise))
+
     def floats(text):
         return [float(v) for v in text.split(",")] if text else None
 
@@ -325,9 +362,7 @@ def main(argv=None) -> int:
                            "python": sys.version.split()[0]},
                "quick": args.quick, "complete": complete,
                "seconds": time.perf_counter() - t0, "summary": summarise(files),
-               "by_truth": {truth: summarise([r for r in files if r["truth"] == truth])
-                            for truth in dict.fromkeys(r["truth"] for r in files)},
-               "files": files}
+               "by_truth": _by_truth(files), "files": files}
         if base is not None:
             out["seconds"] = base["seconds"]
             out["rerun"] = {"files": [[r["truth"], r["hidden"]] for r in rows],
@@ -347,19 +382,7 @@ def main(argv=None) -> int:
                   f"{' + '.join(row['hidden']) or '(clean)'}: added "
                   f"{' + '.join(row['added']) or 'nothing'}", flush=True)
             save(complete=False)
-    out = save(complete=True)
-    rows = out["files"]
-    print_table(rows, out["summary"])
-    if len(out["by_truth"]) > 1:
-        for truth, part in out["by_truth"].items():
-            print(f"\n{truth}: " + ", ".join(
-                f"{k} {round(v, 3) if isinstance(v, float) else v}" for k, v in part.items()
-                if k in ("single_right_first", "single_right_first_not_absorbed",
-                         "pairs_both_found", "pairs_both_found_not_absorbed",
-                         "effects_added_on_clean")))
-    print("\n" + markdown(rows))
-    if len(out["by_truth"]) > 1:
-        print("\n" + markdown_by_truth(rows))
+    _print_all(save(complete=True))
     print(f"\nwrote {args.json}")
     return 0
 
