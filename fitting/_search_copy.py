@@ -72,8 +72,8 @@ def describe(ctx, search) -> str:
         return ""
     k = round(ctx.t.size / search.t.size)
     return (f"effects ranked and tried on one sample in {k} ({search.t.size} samples, the "
-            f"force averaged over {k | 1} around each); the baseline and every step refitted on all "
-            f"{ctx.t.size} samples")
+            f"force averaged over {k | 1} around each); the baseline and every step "
+            f"refitted on all {ctx.t.size} samples")
 
 
 def at_full_rate(ctx, search, baseline, steps):
