@@ -5,7 +5,8 @@ falling as effects are added.
 zero-phase difference (`derivatives`, `fitting._derivatives`) unless given. The data are cut
 into `blocks` contiguous time blocks; every third block is held out, the rest is the
 training set (interleaved, so that a slow drift or a position dependence is seen in both).
-The model is fitted on the training set (restarted while that still helps, see `_step`).
+The model is fitted on the training set (restarted while that still helps, see
+`fitting._diagnose_context._step`).
 Then, for every candidate effect of `jaxfric.effects`:
 
 1. its nonlinear parameters (cogging period, Stribeck velocity, presliding stiffness, lag
@@ -58,6 +59,13 @@ best single effect, are each added together and refitted, with the same checks; 
 that hold up, the one with the lower held-out error is kept, as one step. Each of the two
 is then ranked by its share within the pair (the held-out SSE it removes when added to the
 other), and the evidence says so.
+
+**Long records.** A record of at least twice `search_samples` samples is ranked and tried
+on a search copy of about that many (`fitting._search_copy`: one sample in k, the force
+averaged over a centred window); the baseline and every step are then refitted on all
+samples from where the search left them, so every error and parameter reported is of the
+whole record, and the rankings and trials are of the copy (`Diagnosis.search` says so).
+The fits, restarts and context every step shares are in `fitting._diagnose_context`.
 
 """
 
@@ -158,6 +166,7 @@ class Diagnosis:
         return "\n".join(lines)
 
 
+#: Most pairs of effects tried together when no single effect holds up (see `diagnose`).
 _PAIRS = 2
 
 

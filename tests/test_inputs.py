@@ -112,6 +112,7 @@ def cli_results(tmp_path_factory):
         "max_steps_negative": [*fit, "--max-steps", "-1", str(good)],
         "window_nan": ["diagnose", "--velocity-window", "nan", str(good)],
         "window_negative": ["diagnose", "--velocity-window", "-0.01", str(good)],
+        "search_negative": ["diagnose", "--search-samples", "-5", str(good)],
         "kind_conflict": [*fit, "--rotary", "--kind", "linear", str(good)],
         "params_list": ["simulate", str(good), "--params", str(params_list),
                         "--out", str(tmp / "sim.csv")],
@@ -131,6 +132,7 @@ EXPECTED = {
     "max_steps_negative": "--max-steps -1: must be 0 or more",
     "window_nan": "--velocity-window nan: must be a finite time > 0",
     "window_negative": "--velocity-window -0.01: must be a finite time > 0",
+    "search_negative": "--search-samples -5: must be 0 (every sample) or more",
     "kind_conflict": "--rotary and --kind linear contradict each other",
     "params_list": "plist.json: 'params' must be an object of parameter names and numbers",
 }
