@@ -115,3 +115,11 @@ def test_gms_from_shape_matches_reference_elements():
     np.testing.assert_allclose(model.nu, nu, atol=1e-12)
     np.testing.assert_allclose(model.k, k, rtol=1e-9, atol=1e-3)
     assert abs(float(jnp.sum(model.nu)) - 1.0) < 1e-12
+
+
+def test_the_reference_passes_its_own_check_against_the_specification(capsys):
+    """`tests/reference_check.py`: the reference's shapes, loops and steady states against
+    properties the specification states, with nothing from jaxfric."""
+    from .reference_check import _self_check
+
+    assert _self_check(), capsys.readouterr().out
