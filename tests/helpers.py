@@ -112,11 +112,15 @@ def flat_stribeck_two_state(shape=None, C=10.8, stack_size=16):
 
 def load_example(name: str):
     """The script ``examples/<name>.py`` as a module (the examples are scripts, not a
-    package), loaded once per test process."""
+    package), loaded once per test process, with ``examples/`` on the import path as when
+    the script runs (an example may import its sibling modules, e.g. ``tribometer_data``)."""
     key = f"examples_{name}"
     if key in sys.modules:
         return sys.modules[key]
-    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
+    folder = Path(__file__).resolve().parents[1] / "examples"
+    if str(folder) not in sys.path:
+        sys.path.insert(0, str(folder))
+    path = folder / f"{name}.py"
     spec = importlib.util.spec_from_file_location(key, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[key] = module  # dataclasses look their module up by name
