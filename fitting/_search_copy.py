@@ -3,10 +3,10 @@ samples, then refits what it found on all of them.
 
 A diagnosis fits its model many times (the baseline, and two refits with up to five
 restarts for every candidate it tries), and a fit's cost grows with the record's length:
-at 1e5 samples each Levenberg-Marquardt step takes about 0.15 s on two cores. The
-decisions do not need every sample: the diagnosis's evidence is counted in batches longer
-than the residual's correlation, and its bench (`benchmarks/diagnosis_bench.py`) shows it
-works at 1e4-2e4 samples over a record. So when a record has at least twice
+each Levenberg-Marquardt step runs the model over every sample. The decisions do not need
+every sample: the diagnosis's evidence is counted in batches longer than the residual's
+correlation, and its bench (`benchmarks/diagnosis_bench.py`) shows it works at 1e4-2e4
+samples over a record. So when a record has at least twice
 `SEARCH_SAMPLES` samples, the search runs on one sample in k (``k = n // SEARCH_SAMPLES``):
 
 - time, position and velocity are those of the kept samples (the velocity is the

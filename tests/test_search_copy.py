@@ -1,10 +1,13 @@
 """The search copy of a long record (`fitting._search_copy`): the diagnosis ranks and tries
 effects on one sample in k, with the force averaged over each window, and refits on all."""
 
+import json
+
 import numpy as np
 import pytest
 
 import fitting
+import jaxfric
 from fitting._diagnose_context import _Context
 from fitting._regimes import holdout_mask
 from fitting._search_copy import factor, search_context
@@ -70,3 +73,13 @@ def test_diagnosis_searches_the_copy_and_reports_on_every_sample(long_record):
     assert d.final.rmse <= 0.6 * d.baseline.rmse, d.summary()
     # The searched rankings are of the copy (a third of the samples), the trials too.
     assert d.trials and all(trial["effects"] for trial in d.trials)
+
+
+def test_searched_diagnosis_saves_the_model_of_its_full_rate_refit(long_record):
+    """The JSON's model, read back and simulated on every sample with the diagnosis's
+    velocity, is the final step's prediction (the full-rate refit, not the search's)."""
+    t, x, F, d = long_record
+    back = jaxfric.load_model(json.loads(json.dumps(d.to_json())))
+    v = fitting.estimate_velocity(t, x, "backward")  # the diagnosis's derivatives
+    np.testing.assert_allclose(jaxfric.simulate(back, t, x, v), d.final.fit.prediction,
+                               rtol=0, atol=1e-9 * np.max(np.abs(F)))
