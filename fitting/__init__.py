@@ -56,7 +56,10 @@ properties pytree beside the model, never inside it.
   -> `Segments`; `initial_stribeck(segments)`.
 - `estimate_velocity(t, x, method="central")`: the velocity a fit of measured data should
   use (zero phase: ``"central"`` or ``"savgol"``; ``"backward"`` is what `jaxfric.simulate`
-  derives by itself); `fit(..., v=estimate_velocity(t, x))`. `diagnose` does this itself
+  derives by itself); `fit(..., v=estimate_velocity(t, x))`.
+  `estimate_derivatives(t, x, method)` -> ``(v, a)``, with the acceleration an inertia
+  effect reads (``None`` for ``"backward"``): ``fit(..., v=v, a=a)``;
+  `estimate_acceleration(t, v)` for a velocity column. `diagnose` does this itself
   (`derivatives=`).
 
 Example::
@@ -90,7 +93,11 @@ from jaxfric import NormalizedPaperShape as NormalizedPaperShape
 
 from ._candidates import Candidate as Candidate
 from ._data import Dataset as Dataset
-from ._derivatives import estimate_velocity as estimate_velocity
+from ._derivatives import (
+    estimate_acceleration as estimate_acceleration,
+    estimate_derivatives as estimate_derivatives,
+    estimate_velocity as estimate_velocity,
+)
 from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
 from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult

@@ -12,9 +12,12 @@ import numpy as np
 from jaxfric import effects as fx
 
 
-def _signals(t, x, v, base, static, load=None):
+def _signals(t, x, v, base, static, load=None, a=None):
+    """The `jaxfric.effects.Signals` of concrete arrays; `a` None: the backward difference
+    of `v`, as the model takes it."""
     dt = np.r_[0.0, np.diff(t)]
-    a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
+    if a is None:
+        a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
     return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
                       dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
                       t0=jnp.asarray(t[0]), base=jnp.asarray(base),

@@ -6,6 +6,8 @@ of weight 0 that continue the time axis and hold the last position (the model is
 there, so padding creates no events). One shape for all stages means one compilation.
 """
 
+import dataclasses
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -39,10 +41,11 @@ def absurd_sample(name: str, a: np.ndarray, w: np.ndarray | None = None
 
 
 #: One experiment for a fit: `jaxfric.data.Measurement` (the same class), constructed as
-#: ``Dataset(t, x, F, v=None, weights=None, load=None)`` in SI (s, m, N, m/s; weights >= 0,
-#: 0 drops a sample, ``None`` for ones; ``v`` ``None`` for the backward difference of ``x``,
-#: as `jaxfric.simulate`; ``load`` the transmitted load, N, for
-#: `jaxfric.effects.LoadFriction`).
+#: ``Dataset(t, x, F, v=None, weights=None, load=None, a=None)`` in SI (s, m, N, m/s;
+#: weights >= 0, 0 drops a sample, ``None`` for ones; ``v`` ``None`` for the backward
+#: difference of ``x``, as `jaxfric.simulate`; ``load`` the transmitted load, N, for
+#: `jaxfric.effects.LoadFriction`; ``a`` the acceleration, m/s^2, for
+#: `jaxfric.effects.Inertia`, ``None`` for the backward difference of ``v``).
 Dataset = Measurement
 
 
@@ -68,7 +71,7 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
     if n < 2:
         raise ValueError(f"{where}need at least 2 samples, got {n}")
     out = {"t": t}
-    for name in ("x", "F", "v", "weights", "load"):
+    for name in ("x", "F", "v", "weights", "load", "a"):
         a = getattr(data, name)
         if a is None:
             out[name] = None
@@ -78,7 +81,7 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
             raise ValueError(f"{where}{name} has shape {arr.shape}, t has {t.shape}")
         out[name] = arr
     w = out["weights"] if out["weights"] is not None else np.ones_like(t)
-    for name in ("t", "x", "v", "weights", "load") + (("F",) if check_force else ()):
+    for name in ("t", "x", "v", "weights", "load", "a") + (("F",) if check_force else ()):
         a = out[name]
         if name == "F":
             a = np.where(w > 0, a, 0.0)
@@ -125,17 +128,19 @@ def pad(data: Dataset, n: int) -> Dataset:
         v=hold(data.v, 0.0),
         weights=hold(data.weights, 0.0),
         load=hold(data.load, data.load[-1] if data.load is not None else 0.0),
+        a=hold(data.a, 0.0),
     )
 
 
 def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
     """Checked datasets padded to a common length and stacked: arrays of shape ``(D, n)``.
 
-    If some datasets give `v` and others do not, the missing ones get the backward
+    If some datasets give `v` (or `a`) and others do not, the missing ones get the backward
     difference (what the model would use anyway).
     """
     n = max(d.t.shape[0] for d in datasets) if n is None else n
     any_v = any(d.v is not None for d in datasets)
+    any_a = any(d.a is not None for d in datasets)
     with_load = [d.load is not None for d in datasets]
     if any(with_load) and not all(with_load):
         raise ValueError(f"datasets {[i for i, w in enumerate(with_load) if not w]} have no "
@@ -143,8 +148,10 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
     padded = []
     for d in datasets:
         if any_v and d.v is None:
-            d = Dataset(t=d.t, x=d.x, F=d.F, v=velocity(d.t, d.x), weights=d.weights,
-                        load=d.load)
+            d = dataclasses.replace(d, v=velocity(d.t, d.x))
+        if any_a and d.a is None:
+            v = velocity(d.t, d.x) if d.v is None else d.v
+            d = dataclasses.replace(d, a=np.r_[0.0, np.diff(v) / np.diff(d.t)])
         padded.append(pad(d, n))
 
     def field(name):
@@ -157,4 +164,5 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
         v=field("v") if any_v else None,
         weights=field("weights"),
         load=field("load") if all(with_load) else None,
+        a=field("a") if any_a else None,
     )

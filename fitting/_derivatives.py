@@ -1,11 +1,12 @@
-"""Velocity for identification: which derivative of the measured position a fit or a
-diagnosis uses, and how to say so in a report.
+"""Velocity and acceleration for identification: which derivatives of the measured position
+a fit or a diagnosis uses, and how to say so in a report.
 
-A measurement has the position at each sample; the velocity (and from it the acceleration
-that the effects see) has to be estimated. `jaxfric.simulate` and a controller's per-sample
-``step`` take the backward difference, the only causal choice, which lags the true
-velocity by half a sample (and its difference, the acceleration, by a whole sample). For
-identification the whole record is known, so a zero-phase estimate is better:
+A measurement has the position at each sample; the velocity, and the acceleration that
+`jaxfric.effects.Inertia` reads, have to be estimated. `jaxfric.simulate` and a
+controller's per-sample ``step`` take the backward difference, the only causal choice,
+which lags the true velocity by half a sample (and its difference, the acceleration, by a
+whole sample). For identification the whole record is known, so a zero-phase estimate is
+better:
 
 - ``"central"`` (the default): ``v_n = (x_{n+1} - x_{n-1}) / (t_{n+1} - t_{n-1})``, one-sided
   at the ends; with `window_s`, over ``+-h`` samples (``h`` = half the window in sample
@@ -15,7 +16,16 @@ identification the whole record is known, so a zero-phase estimate is better:
 - ``"backward"``: what `jaxfric.simulate` does without a velocity; right for data that
   `simulate` itself made, and for checking what a causal controller would see.
 
-A velocity column in the file is used as it is (`derivatives` is then not applied).
+The acceleration (`estimate_derivatives`) follows the same method: the central difference
+of the velocity estimate (over the same window), the Savitzky-Golay second derivative, or
+``None`` for ``"backward"`` (the model then takes the backward difference of the velocity,
+as `jaxfric.simulate` and a controller's step do, which lags by a whole sample: at 1 ms on
+the bench's encoder that is 0.012 m/s^2 of noise, 0.24 N through 20 kg,
+`benchmarks/acceleration_noise.py`).
+
+A velocity column in the file is used as it is (`derivatives` is then not applied to it;
+the acceleration is then the central difference of that column, or ``None`` for
+``"backward"``); an acceleration column is used as it is.
 """
 
 import numpy as np
@@ -31,10 +41,7 @@ def estimate_velocity(t, x, method: str = "central", window_s: float | None = No
     """The velocity (m/s) of position `x` (m) at times `t` (s) by `method` (see the module
     docstring)."""
     t, x = np.asarray(t, np.float64), np.asarray(x, np.float64)
-    if method not in DERIVATIVES:
-        raise ValueError(f"derivatives: {method!r} is not one of {', '.join(DERIVATIVES)}")
-    if window_s is not None and not (np.isfinite(window_s) and window_s > 0):
-        raise ValueError(f"velocity window: {float(window_s):g} s is not a positive number")
+    _check(method, window_s)
     if method == "backward":
         return velocity(t, x)
     if method == "central":
@@ -45,10 +52,64 @@ def estimate_velocity(t, x, method: str = "central", window_s: float | None = No
     return smooth_derivatives(t, x, 7 * h if window_s is None else window_s)[0]
 
 
-def describe(method: str, window_s: float | None = None, column: bool = False) -> str:
-    """How the velocity was obtained, in words for a report."""
+def _check(method, window_s) -> None:
+    if method not in DERIVATIVES:
+        raise ValueError(f"derivatives: {method!r} is not one of {', '.join(DERIVATIVES)}")
+    if window_s is not None and not (np.isfinite(window_s) and window_s > 0):
+        raise ValueError(f"velocity window: {float(window_s):g} s is not a positive number")
+
+
+def estimate_acceleration(t, v, method: str = "central", window_s: float | None = None
+                          ) -> np.ndarray | None:
+    """The zero-phase acceleration (m/s^2) of velocity `v` (m/s) at times `t` (s): its
+    central difference (over ``+-h`` samples with `window_s`, as `estimate_velocity`), or
+    ``None`` for ``"backward"`` (the model's own backward difference). ``"savgol"`` here
+    (a velocity column) is the central difference too."""
+    _check(method, window_s)
+    if method == "backward":
+        return None
+    t, v = np.asarray(t, np.float64), np.asarray(v, np.float64)
+    if window_s is None:
+        return np.gradient(v, t, edge_order=1) if v.size > 1 else np.zeros_like(v)
+    return velocity(t, v, window_s)
+
+
+def estimate_derivatives(t, x, method: str = "central", window_s: float | None = None
+                         ) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(v, a)``: the velocity (m/s) and acceleration (m/s^2) of position `x` (m) at times
+    `t` (s) by `method` (see the module docstring); ``a`` is ``None`` for ``"backward"``
+    (what the model derives itself)."""
+    if method == "savgol":
+        _check(method, window_s)
+        h = float(np.median(np.diff(np.asarray(t, np.float64))))
+        return smooth_derivatives(t, x, 7 * h if window_s is None else window_s)
+    v = estimate_velocity(t, x, method, window_s)
+    return v, estimate_acceleration(t, v, method, window_s)
+
+
+def describe(method: str, window_s: float | None = None, column: bool = False,
+             acceleration_column: bool = False) -> str:
+    """How the velocity (and the acceleration) were obtained, in words for a report."""
     if column:
-        return "the file's velocity column"
+        return "the file's velocity column" + _acceleration_words(
+            "central" if method == "savgol" else method, window_s, acceleration_column,
+            "of that column")
+    return _velocity_words(method, window_s) + _acceleration_words(
+        method, window_s, acceleration_column, "of that velocity")
+
+
+def _acceleration_words(method, window_s, column, of) -> str:
+    if column:
+        return "; acceleration: the file's column"
+    if method == "backward":
+        return "; acceleration: its backward difference (causal)"
+    if method == "savgol":
+        return "; acceleration: the same filter's second derivative"
+    return (f"; acceleration: central difference {of}"
+            + ("" if window_s is None else f" over {1e3 * window_s:.3g} ms"))
+
+
+def _velocity_words(method: str, window_s: float | None) -> str:
     if method == "backward":
         return "backward difference of the position (causal, as a controller's step)"
     if method == "central":

@@ -192,12 +192,13 @@ def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
         if name in state.added:
             continue
         c = _screen(name, state.current, ctx.t, ctx.x, ctx.v_arr, ctx.F, state.resid, J,
-                    ctx.train, ctx.test, ctx.min_score, ctx.min_t, load=ctx.load)
+                    ctx.train, ctx.test, ctx.min_score, ctx.min_t, load=ctx.load,
+                    a=ctx.a)
         if c is not None:
             ranking.append(c)
     ranking.sort(key=lambda c: c.score, reverse=True)
     _joint_check(ranking, state.current, ctx.t, ctx.x, ctx.v_arr, state.resid, J, ctx.train,
-                 ctx.test, ctx.min_score, ctx.min_t, load=ctx.load)
+                 ctx.test, ctx.min_score, ctx.min_t, load=ctx.load, a=ctx.a)
     for c in ranking[:3]:
         ctx.log(f"  {c.name}: score {c.score:.3f}, t {c.t_stat:.1f}"
                 + ("  (significant)" if c.significant else ""))
@@ -348,7 +349,7 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
     best_single = max((c.score for c in ranking), default=0.0)
     pairs = [p for p in _pair_screen(ranking, state.current, ctx.t, ctx.x, ctx.v_arr,
                                      state.resid, J, ctx.train, ctx.test,
-                                     load=ctx.load)[:_PAIRS]
+                                     load=ctx.load, a=ctx.a)[:_PAIRS]
              if p.score >= 4 * ctx.min_score and p.score >= best_single + ctx.min_score]
     tried = []
     for pair in pairs:
@@ -394,6 +395,7 @@ def diagnose(
     rotary: bool = False,
     load=None,
     search_samples: int | None = SEARCH_SAMPLES,
+    a=None,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), rank the missing effects, add the significant
     ones one at a time with a joint refit after each (see the module docstring).
@@ -410,19 +412,21 @@ def diagnose(
     screened only when it is given. `derivatives`: how the velocity is estimated from the
     position when `v` is not given (``"central"``, ``"savgol"`` or ``"backward"``, over
     `velocity_window` seconds; see `fitting._derivatives`): every fit and screen uses that
-    velocity, and the effects' acceleration is its backward difference. Data made by
-    `jaxfric.simulate` without a velocity want ``"backward"``; measurements want a
-    zero-phase estimate (the default). `search_samples`: a record of at least twice as
-    many samples is searched on about this many (`fitting._search_copy`: the force
-    averaged over windows), and the baseline and each step refitted on all samples; None
-    or 0 searches on every sample.
+    velocity, and the acceleration `jaxfric.effects.Inertia` reads by the same method (the
+    central difference of the velocity, the Savitzky-Golay second derivative, or for
+    ``"backward"`` the model's own backward difference), unless `a` (m/s^2, a measured
+    column) is given. Data made by `jaxfric.simulate` without a velocity want
+    ``"backward"``; measurements want a zero-phase estimate (the default).
+    `search_samples`: a record of at least twice as many samples is searched on about
+    this many (`fitting._search_copy`: the force averaged over windows), and the baseline
+    and each step refitted on all samples; None or 0 searches on every sample.
     Returns a `Diagnosis`; its models are in the fit representation
     (`fitting.to_fit_representation`: a `PaperShape` appears as the equivalent
     `NormalizedPaperShape`, finite where the paper's ``a`` would overflow).
     """
     full = _context(model, t, x, F, v, blocks=blocks, max_steps=max_steps, fixed=fixed,
                     min_score=min_score, min_t=min_t, log=log, derivatives=derivatives,
-                    velocity_window=velocity_window, load=load)
+                    velocity_window=velocity_window, load=load, a=a)
     ctx = search_context(full, search_samples)
     search = describe_search(full, ctx)
     if search:
@@ -437,7 +441,8 @@ def diagnose(
                    best_holdout=baseline.rmse_holdout, added=[])
     steps, rankings = [], []
     while True:
-        J = _base_jacobian(state.current, ctx.t, ctx.x, ctx.v, ctx.fixed, load=ctx.load)
+        J = _base_jacobian(state.current, ctx.t, ctx.x, ctx.v, ctx.fixed, load=ctx.load,
+                           a=ctx.a)
         ranking = _rank(ctx, state, names, J)
         rankings.append(ranking)
         if len(state.added) >= max_added:

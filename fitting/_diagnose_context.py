@@ -13,7 +13,7 @@ from jaxfric import effects as fx
 
 from . import _params
 from ._candidates import DRIFT_SPAN_RATIO
-from ._derivatives import describe, estimate_velocity
+from ._derivatives import describe, estimate_acceleration, estimate_derivatives
 from ._fit import fit
 from ._regimes import holdout_mask, regime_errors, regimes
 from ._result import FitResult
@@ -62,12 +62,12 @@ def _refit_props(model, t):
 
 
 def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=(),
-          restart=False, load=None):
+          restart=False, load=None, a=None):
     names = _params.leaf_names(_params.to_fit_representation(model))
     free = [n for n in names if n not in fixed] if fixed else None
     props = _refit_props(model, t)
     res = fit(model, t, x, F, v, weights=train.astype(float), max_steps=max_steps, free=free,
-              load=load, props=props)
+              load=load, props=props, a=a)
     # A refit with a new effect starts from the screen's values, often far from its
     # optimum; a warm restart (fresh damping) gets it unstuck more often than more steps.
     # Restart while the fit stops at its step limit and each restart still lowers the
@@ -77,7 +77,7 @@ def _step(model, added, t, x, v, F, train, test, masks, log, max_steps, fixed=()
         if bool(res.converged):
             break
         again = fit(res.model, t, x, F, v, weights=train.astype(float), max_steps=max_steps,
-                    free=free, load=load, props=props)
+                    free=free, load=load, props=props, a=a)
         progress = float(again.rmse) < 0.99 * float(res.rmse)
         if float(again.rmse) <= float(res.rmse):
             res = again
@@ -116,11 +116,12 @@ class _Context:
     velocity: str  # how `v` was obtained, in words
     load: np.ndarray | None = None  # the transmitted load (N or N m), if the data have one
     blocks: int = 24  # time blocks of the held-out split (`fitting._regimes.holdout_mask`)
+    a: np.ndarray | None = None  # the acceleration (m/s^2); None: the model's backward one
 
     def step(self, model, added, restart=False):
         return _step(model, added, self.t, self.x, self.v, self.F, self.train, self.test,
                      self.masks, self.log, self.max_steps, self.fixed, restart=restart,
-                     load=self.load)
+                     load=self.load, a=self.a)
 
 
 def _contained(model, fixed) -> set[str]:
@@ -148,7 +149,7 @@ def effect_names(effects, present, rotary: bool, has_load: bool = False) -> list
 
 
 def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, log,
-             derivatives, velocity_window, load=None) -> _Context:
+             derivatives, velocity_window, load=None, a=None) -> _Context:
     """Check the inputs and set a diagnosis up (see `diagnose`)."""
     fixed = tuple(fixed)
     # Work in the fit representation throughout (a `PaperShape` as a `NormalizedPaperShape`):
@@ -159,10 +160,20 @@ def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, l
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {_params.leaf_names(model)}")
     t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
-    how = describe(derivatives, velocity_window, column=v is not None)
+    how = describe(derivatives, velocity_window, column=v is not None,
+                   acceleration_column=a is not None)
     if v is None:
-        v = estimate_velocity(t, x, derivatives, velocity_window)
+        v, a_est = estimate_derivatives(t, x, derivatives, velocity_window)
+    else:
+        v = np.asarray(v, np.float64)
+        a_est = estimate_acceleration(t, v, derivatives, velocity_window)
     v = np.asarray(v, np.float64)
+    if a is None:
+        a = a_est
+    else:
+        a = np.asarray(a, np.float64)
+        if a.shape != t.shape:
+            raise ValueError(f"a has shape {a.shape}, t has {t.shape}")
     if load is not None:
         load = np.asarray(load, np.float64)
         if load.shape != t.shape:
@@ -171,4 +182,4 @@ def _context(model, t, x, F, v, *, blocks, max_steps, fixed, min_score, min_t, l
     return _Context(model=model, t=t, x=x, v=v, v_arr=v, F=F, train=~test, test=test,
                     block=block, masks=regimes(t, x, v), log=log or (lambda *_: None),
                     max_steps=max_steps, fixed=fixed, min_score=min_score, min_t=min_t,
-                    velocity=how, load=load, blocks=blocks)
+                    velocity=how, load=load, blocks=blocks, a=a)

@@ -27,6 +27,7 @@ experiments of one fit, and a custom JVP materialises the Jacobian once per eval
 parameters ``theta``, including those derived through a reparameterisation (``a..beta``).
 """
 
+import dataclasses
 import warnings
 from collections.abc import Iterable, Sequence
 
@@ -108,7 +109,7 @@ def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
     with values that are not finite (a diverged fit) keeps the solve's prediction."""
     if not _finite(result.fit_model):
         return result
-    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v, load=d.load)
+    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v, load=d.load, a=d.a)
                  for d in checked)
     resid = tuple(jnp.asarray(np.asarray(p) - np.asarray(d.F)) for p, d in zip(pred, checked))
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), result, (pred, resid))
@@ -144,7 +145,7 @@ def _without_glitches(d: Dataset, i: int) -> Dataset:
                   jaxfric.data.DataWarning, stacklevel=3)
     F = np.array(d.F)
     F[k] = np.nan
-    return Dataset(t=d.t, x=d.x, F=F, v=d.v, weights=d.weights)
+    return dataclasses.replace(d, F=F)
 
 
 def fit(
@@ -166,6 +167,7 @@ def fit(
     setol: float = Tolerances.setol,
     progress=None,
     load=None,
+    a=None,
 ) -> FitResult:
     """Least-squares fit of any jaxfric model to one experiment.
 
@@ -198,11 +200,14 @@ def fit(
       l1`` directly.
     - `load`: the transmitted load (N, or N m), for a model with
       `jaxfric.effects.LoadFriction` (``jaxfric.simulate(..., load=...)``).
+    - `a`: the acceleration (m/s^2) that `jaxfric.effects.Inertia` reads (``None``: the
+      backward difference of `v`, as `jaxfric.simulate`); for measured data a zero-phase
+      estimate, `estimate_derivatives`, or a measured column.
 
     **Returns:** a `FitResult`. Failures to converge are reported in ``result``/``status``
     (``throw=False``); shape and value problems of the inputs raise `ValueError`.
     """
-    data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load)
+    data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load, a=a)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
                        max_steps=max_steps, reparameterize=reparameterize, ftol=ftol,
                        xtol=xtol, gtol=gtol, setol=setol, progress=progress)

@@ -71,12 +71,12 @@ def _simulate_stack(model, data: Dataset, max_reversals: int | None = None):
     model_ = model
 
     def one(d):
-        t, x, v, load = d
+        t, x, v, load, a = d
         out = jaxfric.simulate(model_, t, x, v, full_output=True,
-                               max_reversals=max_reversals, load=load)
+                               max_reversals=max_reversals, load=load, a=a)
         return out.force, out.overflow
 
-    force, overflow = jax.lax.map(one, (data.t, data.x, data.v, data.load))
+    force, overflow = jax.lax.map(one, (data.t, data.x, data.v, data.load, data.a))
     return force, jnp.sum(overflow)
 
 

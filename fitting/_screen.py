@@ -27,13 +27,14 @@ from ._candidates import (
 from ._evidence import convincing, evidence
 
 
-def _base_jacobian(model, t, x, v, fixed=(), load=None):
+def _base_jacobian(model, t, x, v, fixed=(), load=None, a=None):
     """d force / d (every parameter of `model` not in `fixed`, natural SI values), columns
     normalised."""
     p0 = _params.natural_vector(model)
 
     def force(p):
-        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v, load=load)
+        return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v, load=load,
+                                a=a)
 
     J = np.asarray(jax.jacfwd(eqx.filter_jit(force))(p0))
     J = J[:, [n not in fixed for n in _params.natural_names(model)]]
@@ -42,13 +43,15 @@ def _base_jacobian(model, t, x, v, fixed=(), load=None):
     return J[:, norms > 0] / norms[norms > 0]
 
 
-def _base_signals(model, t, x, v, load=None):
+def _base_signals(model, t, x, v, load=None, a=None):
     """The signals effects are built from (`_signals`), at the force of `model` without
-    its added effects; `load` (N) for the load-dependent effects."""
+    its added effects; `load` (N) for the load-dependent effects, `a` (m/s^2; None: the
+    backward difference of `v`) for `jaxfric.effects.Inertia`."""
     base_model = model.without_effects()
     base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
     return _signals(t, x, v, base_force,
-                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)), load)
+                    np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)), load,
+                    a)
 
 
 def _unit_columns(B, train):
@@ -93,15 +96,15 @@ def _regress_bounded(resid, train, J, blocks):
         held.update(out)
 
 
-def _normalised_columns(candidates, model, t, x, v, train, load=None):
+def _normalised_columns(candidates, model, t, x, v, train, load=None, a=None):
     """Each candidate's regression columns at `model`'s base force, scaled to unit norm on
     the training samples: a list of ``(columns, scale)``."""
-    s = _base_signals(model, t, x, v, load)
+    s = _base_signals(model, t, x, v, load, a)
     return [_unit_columns(_columns(c.effect, s), train) for c in candidates]
 
 
 def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, min_t,
-                 load=None):
+                 load=None, a=None):
     """Re-test the leading candidates together: with two effects hidden, each one's screen
     sees the other's residual as noise, which can make a real effect look inconsistent. The
     candidates with a score of at least `min_score` (at most three) are regressed jointly
@@ -112,7 +115,7 @@ def _joint_check(candidates, model, t, x, v, resid, J, train, test, min_score, m
     if len(lead) < 2:
         return
     cols = [(B, scale, c.name) for (B, scale), c in
-            zip(_normalised_columns(lead, model, t, x, v, train, load), lead)]
+            zip(_normalised_columns(lead, model, t, x, v, train, load, a), lead)]
 
     full, _ = _regress_bounded(resid, train, J, cols)
     for i, c in enumerate(lead):
@@ -138,7 +141,7 @@ class _Pair:
     effects: tuple[fx.AbstractEffect, fx.AbstractEffect]
 
 
-def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
+def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None, a=None
                  ) -> list[_Pair]:
     """Every pair of screened candidates regressed together with the model's Jacobian (the
     single screens' Gauss-Newton step with two effects), best pair first. Two missing
@@ -149,7 +152,8 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
     if len(candidates) < 2:
         return []
     cols = [(B, scale, c.name) for (B, scale), c in
-            zip(_normalised_columns(candidates, model, t, x, v, train, load), candidates)]
+            zip(_normalised_columns(candidates, model, t, x, v, train, load, a),
+                candidates)]
 
     def solve(used):
         return _regress_bounded(resid, train, J, [cols[i] for i in used])
@@ -173,8 +177,9 @@ def _pair_screen(candidates, model, t, x, v, resid, J, train, test, load=None
     return pairs
 
 
-def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t, load=None):
-    s = _base_signals(model, t, x, v, load)
+def _screen(name, model, t, x, v, F, resid, J, train, test, min_score, min_t, load=None,
+            a=None):
+    s = _base_signals(model, t, x, v, load, a)
     best = None
     base_test = resid[test]
     # The model's own parameters alone (one Gauss-Newton step): the reference.

@@ -9,8 +9,8 @@ correlation, and its bench (`benchmarks/diagnosis_bench.py`) shows it works at 1
 samples over a record. So when a record has at least twice
 `SEARCH_SAMPLES` samples, the search runs on one sample in k (``k = n // SEARCH_SAMPLES``):
 
-- time, position and velocity are those of the kept samples (the velocity is the
-  full-rate estimate there, as good as it gets);
+- time, position, velocity and acceleration are those of the kept samples (the full-rate
+  estimates there, as good as they get);
 - the force (and a load) is the mean over the window of k samples centred on each kept
   one (k + 1 when k is even, so that it has a middle): a zero-phase boxcar that keeps the
   record's information about anything slower than the window (its noise falls by
@@ -61,7 +61,8 @@ def search_context(ctx, samples: int | None):
     t, x, v = ctx.t[middle], ctx.x[middle], ctx.v[middle]
     test, block = holdout_mask(t, ctx.blocks)
     return dataclasses.replace(
-        ctx, t=t, x=x, v=v, v_arr=v, F=_window_mean(ctx.F, w, middle),
+        ctx, t=t, x=x, v=v, v_arr=v, a=None if ctx.a is None else ctx.a[middle],
+        F=_window_mean(ctx.F, w, middle),
         load=None if ctx.load is None else _window_mean(ctx.load, w, middle),
         train=~test, test=test, block=block, masks=regimes(t, x, v))
 

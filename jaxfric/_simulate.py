@@ -55,8 +55,9 @@ def _check_values(name: str, a) -> None:
 
 
 @eqx.filter_jit
-def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None) -> SimResult:
-    return model._simulate(make_motion(t, x, v, max_reversals, load))
+def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
+         a=None) -> SimResult:
+    return model._simulate(make_motion(t, x, v, max_reversals, load, a))
 
 
 def _uses_reversal_bound(model) -> bool:
@@ -97,15 +98,16 @@ def _checked_motion(t, x, v):
     return t, x, v
 
 
-def _checked_load(load, t):
-    """`load` as a 1-D float array of `t`'s shape and dtype, finite where concrete; None
-    stays None."""
+def _checked_load(load, t, name="load"):
+    """`load` (or another per-sample input `name`) as a 1-D float array of `t`'s shape and
+    dtype, finite where concrete; None stays None."""
     if load is None:
         return None
-    load = _as_1d("load", load)
+    load = _as_1d(name, load)
     if load.shape != t.shape:
-        raise ValueError(f"t and load must have the same shape, got {t.shape} and {load.shape}")
-    _check_values("load", load)
+        raise ValueError(f"t and {name} must have the same shape, got {t.shape} and "
+                         f"{load.shape}")
+    _check_values(name, load)
     return load.astype(t.dtype)
 
 
@@ -154,6 +156,7 @@ def simulate(
     max_reversals: int | None = None,
     deadband: float | str | None = None,
     load: ArrayLike | None = None,
+    a: ArrayLike | None = None,
 ):
     """Friction force of `model` along a motion.
 
@@ -184,6 +187,10 @@ def simulate(
     - `load`: the transmitted load, N (N m on a rotary axis), same shape as `t`: the
       signal `jaxfric.effects.LoadFriction` reads (a file's ``load`` column). A model with
       that effect raises `ValueError` without it; other models ignore it.
+    - `a`: the acceleration, m/s^2 (rad/s^2), same shape as `t`, that effects reading it
+      (`jaxfric.effects.Inertia`) see. ``None``: the backward difference of `v`, what a
+      controller's per-sample ``step`` computes. Identification passes a zero-phase
+      estimate (`fitting.estimate_derivatives`) or a measured column.
 
     **Returns:** the friction force, N, one per sample (or a `SimResult`).
 
@@ -193,10 +200,11 @@ def simulate(
     """
     t, x, v = _checked_motion(t, x, v)
     load = _checked_load(load, t)
+    a = _checked_load(a, t, "a")
     x, v = apply_deadband(x, v, deadband, t)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
-    result = _run(model, t, x, v, max_reversals, load)
+    result = _run(model, t, x, v, max_reversals, load, a)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "

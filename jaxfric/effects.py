@@ -496,7 +496,7 @@ class WithEffects(AbstractFrictionModel):
 
     def _simulate(self, motion: Motion) -> SimResult:
         r = self.base._simulate(motion)
-        a = _acceleration(motion.v, motion.dt)
+        a = _acceleration(motion.v, motion.dt) if motion.a is None else motion.a
         s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
                     t0=motion.t[0], base=r.force,
                     static=static_force(self.base, motion.v, r.force), load=motion.load)

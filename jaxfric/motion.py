@@ -40,6 +40,9 @@ class Motion(eqx.Module):
     - `x_prev`: ``x_{n-1}`` (``x_0`` at ``n = 0``): the reversal point when one happens at n.
     - `load`: the transmitted load (N, or N m on a rotary axis) that load-dependent
       effects (`jaxfric.effects.LoadFriction`) read, or ``None`` when none was given.
+    - `a`: the acceleration (m/s^2) that effects reading it (`jaxfric.effects.Inertia`)
+      see, or ``None``: the backward difference of `v`, what a controller's per-sample
+      step computes. Identification passes a zero-phase estimate (`fitting._derivatives`).
     - `max_reversals`: a static upper bound on the number of reversals (`reversal` true),
       or ``None`` (up to ``n``). `TwoState` evaluates its reversal terms on a list of this
       size rather than on every sample; `reversal_bound` computes one from concrete data.
@@ -55,6 +58,7 @@ class Motion(eqx.Module):
     prev_last_d: Float[Array, " n"]
     x_prev: Float[Array, " n"]
     load: Float[Array, " n"] | None = None
+    a: Float[Array, " n"] | None = None
     max_reversals: int | None = eqx.field(static=True, default=None)
 
     @property
@@ -70,7 +74,7 @@ class Motion(eqx.Module):
         """This motion with `v` replaced by `consistent_velocity` (and the directions
         re-derived): what the models with a memory in position (`TwoState`, `GMS`) use."""
         v = consistent_velocity(self.v, self.dx, self.dt)
-        return make_motion(self.t, self.x, v, self.max_reversals, self.load)
+        return make_motion(self.t, self.x, v, self.max_reversals, self.load, self.a)
 
 
 def consistent_velocity(v: Array, dx: Array, dt: Array) -> Array:
@@ -321,9 +325,11 @@ def reversal_bound(t, x, v=None) -> int:
 
 
 def make_motion(t: Array, x: Array, v: Array | None = None,
-                max_reversals: int | None = None, load: Array | None = None) -> Motion:
+                max_reversals: int | None = None, load: Array | None = None,
+                a: Array | None = None) -> Motion:
     """Build a `Motion` from 1-D arrays of equal length (shape checks are the caller's);
-    `load` (N or N m) is carried for the load-dependent effects."""
+    `load` (N or N m) and the acceleration `a` (m/s^2; ``None``: the backward difference
+    of `v`) are carried for the effects."""
     if v is None:
         v = backward_velocity(t, x)
     d = jnp.sign(v)
@@ -345,5 +351,6 @@ def make_motion(t: Array, x: Array, v: Array | None = None,
         prev_last_d=prev_last_d,
         x_prev=x_prev,
         load=load,
+        a=a,
         max_reversals=max_reversals,
     )

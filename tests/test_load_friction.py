@@ -7,6 +7,7 @@ with ``sign(v)``, not with jaxfric's effect)."""
 
 import functools
 
+import equinox as eqx
 import numpy as np
 import pytest
 
@@ -46,10 +47,13 @@ def test_step_matches_simulate():
     v = np.asarray(jaxfric.motion.backward_velocity(t, x))
     model = paper.two_state() + fx.LoadFriction(k_load=0.05)
     want = np.asarray(jaxfric.simulate(model, t, x, v, load=L))
+    # Jitted, as a user stepping a loop from Python would (eagerly, each call re-traces
+    # the event logic's `lax.cond`s: 175 s for these 300 samples).
+    step = eqx.filter_jit(lambda m, *args, load: m.step(*args, load=load))
     state = model.init_state(x[0])
     got = []
     for i in range(t.size):
-        state, f = model.step(state, x[i], v[i], t[i] - t[i - 1] if i else 0.0, load=L[i])
+        state, f = step(model, state, x[i], v[i], t[i] - t[i - 1] if i else 0.0, load=L[i])
         got.append(float(f))
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
 

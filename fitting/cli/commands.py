@@ -43,28 +43,34 @@ def _progress(log, scale: float, unit: str):
     return show
 
 
-def identification_velocity(m, args, log):
-    """``(v, words)``: the file's velocity column, or the estimate `args.derivatives` asks
-    for (`fitting._derivatives`), and how it was obtained."""
-    from .._derivatives import describe, estimate_velocity
+def identification_derivatives(m, args, log):
+    """``(v, a, words)``: the file's velocity column or the estimate `args.derivatives` asks
+    for (`fitting._derivatives`), the acceleration the same way (the file's column, or
+    None: the model's backward difference), and how both were obtained."""
+    from .._derivatives import estimate_acceleration, estimate_derivatives
 
     window = args.velocity_window
-    if m.v is not None:
-        return m.v, describe(args.derivatives, window, column=True)
     try:
-        v = estimate_velocity(m.t, m.x, args.derivatives, window)
+        if m.v is not None:
+            v, a = m.v, estimate_acceleration(m.t, m.v, args.derivatives, window)
+        else:
+            v, a = estimate_derivatives(m.t, m.x, args.derivatives, window)
     except ValueError as e:
         raise _data.DataError(str(e)) from None
-    words = describe(args.derivatives, window)
-    log(f"velocity: {words}")
-    return v, words
+    words = velocity_words(m, args)
+    if m.a is not None:
+        a = m.a
+    if m.v is None or m.a is None:
+        log(f"velocity: {words}")
+    return v, a, words
 
 
 def velocity_words(m, args) -> str:
-    """How `identification_velocity` obtains the velocity of `m`, in words."""
+    """How `identification_derivatives` obtains the velocity and acceleration of `m`."""
     from .._derivatives import describe as words
 
-    return words(args.derivatives, args.velocity_window, column=m.v is not None)
+    return words(args.derivatives, args.velocity_window, column=m.v is not None,
+                 acceleration_column=m.a is not None)
 
 
 def derivatives_json(m, args) -> dict | None:
@@ -116,7 +122,7 @@ def fit_measurement(args, kind: str, m, log):
             "u (inertia and offsets included): use 'jaxfric diagnose' or subtract them first"
         )
     log(describe(m))
-    v, _ = identification_velocity(m, args, log)
+    v, a, _ = identification_derivatives(m, args, log)
     if args.params:
         start, what = model_from_json(args.params, kind)
         log(f"starting from {what}")
@@ -131,7 +137,7 @@ def fit_measurement(args, kind: str, m, log):
     scale = (float(np.std(m.F)) or 1.0) / np.sqrt(m.F.size)
     res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
                progress=_progress(log, scale, m.unit("F")) if watched else None,
-               load=_load_of(m, start))
+               load=_load_of(m, start), a=a)
     elapsed = time.perf_counter() - t0
     # The verdict first: a status name alone ("nonlinear_max_steps_reached") does not say
     # to everyone that the values are not a converged fit.
@@ -180,14 +186,14 @@ def diagnose_measurement(args, kind: str, m, log, report):
         args.velocity_window = window = 0.01
         log("note: velocity from a central difference over 10 ms (--velocity-window), "
             "because inertia makes the force depend on its derivative")
-    v, how = identification_velocity(m, args, log)
+    v, a, how = identification_derivatives(m, args, log)
     start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
     if m.load is not None:
         log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
     d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
                  log=log, rotary=m.kind == _units.ROTARY, load=m.load,
-                 search_samples=getattr(args, "search_samples", SEARCH_SAMPLES))
+                 search_samples=getattr(args, "search_samples", SEARCH_SAMPLES), a=a)
     d.velocity, d.derivatives, d.deadband = how, derivatives_json(m, args), deadband
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:
@@ -304,9 +310,10 @@ def run_simulate(args) -> int:
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
     args.derivatives = args.derivatives or "central"
     m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
-    v, _ = identification_velocity(m, args, log)
+    v, a, _ = identification_derivatives(m, args, log)
     model = _with_stack_size(model, args.stack_size)
-    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, load=_load_of(m, model))
+    out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, load=_load_of(m, model),
+                           a=a)
     force = np.asarray(out.force)
     cols = {"t": m.t, "x": m.x, "v": v, "F_model": force}
     if m.force is not None:
@@ -369,13 +376,13 @@ def compare_measurement(args, kinds, m, log) -> dict:
         raise _data.DataError(f"{m.source}: 'compare' needs the friction force F")
     m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     extra = {} if deadband is None else {"deadband": deadband}
-    v, _ = identification_velocity(m, args, log)
+    v, a, _ = identification_derivatives(m, args, log)
     masks = regimes(m.t, m.x, v)
     rows, results = {}, {}
     for kind in kinds:
         log(f"fitting {kind} ...")
         start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
-        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps)
+        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a)
         errs = regime_errors(np.asarray(res.residuals), masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
         results[kind] = {**result_json(kind, res, m), "regimes": errs, **extra}

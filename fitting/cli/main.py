@@ -80,8 +80,9 @@ examples:
 SIMULATE_HELP = """\
 Simulate a model along the motion of a file (t, x and optionally v; SI or units in the
 header) and write the model force as CSV. Without --params the paper's values are used.
-Without a v column the velocity is estimated from x (--derivatives; with --params, the way
-that fit estimated it, so the force is the fit's prediction).
+Without a v column the velocity is estimated from x, and without an a column the
+acceleration a mass term reads from the velocity (--derivatives; with --params, the way
+that fit estimated them, so the force is the fit's prediction).
 
 examples:
   jaxfric simulate motion.csv --model two-state --out forces.csv
@@ -135,9 +136,10 @@ def _add_data_options(p) -> None:
 
 def _add_derivative_options(p, default_window: str = "none", default="central") -> None:
     p.add_argument("--derivatives", default=default, choices=["central", "savgol", "backward"],
-                   help="velocity from the position when the file has no v column: central "
-                        "difference (zero phase; default), Savitzky-Golay, or the backward "
-                        "difference a causal controller computes"
+                   help="velocity (and acceleration) from the position when the file has no "
+                        "v (a) column: central difference (zero phase; default), "
+                        "Savitzky-Golay, or the backward difference a causal controller "
+                        "computes"
                         + ("" if default else "; with --params, the one the fit used"))
     p.add_argument("--velocity-window", type=float, metavar="S",
                    help=f"smooth the velocity estimate over S seconds (default: {default_window})")
