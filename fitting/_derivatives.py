@@ -17,11 +17,16 @@ better:
   `simulate` itself made, and for checking what a causal controller would see.
 
 The acceleration (`estimate_derivatives`) follows the same method: the central difference
-of the velocity estimate (over the same window), the Savitzky-Golay second derivative, or
-``None`` for ``"backward"`` (the model then takes the backward difference of the velocity,
-as `jaxfric.simulate` and a controller's step do, which lags by a whole sample: at 1 ms on
-the bench's encoder that is 0.012 m/s^2 of noise, 0.24 N through 20 kg,
-`benchmarks/acceleration_noise.py`).
+of the velocity estimate over `ACCELERATION_WINDOW_S` (or the velocity's window if
+longer), the Savitzky-Golay second derivative, or ``None`` for ``"backward"`` (the model
+then takes the backward difference of the velocity, as `jaxfric.simulate` and a
+controller's step do, which lags by a whole sample). Differencing twice amplifies the
+position's quantisation: at 1 ms on the diagnosis bench's 0.05 um encoder, the backward
+difference carries 0.012 m/s^2 of noise (0.24 N through 20 kg), the central difference
+from sample to sample 0.0089, over 10 ms 0.0041, about what 10 ms sampling gives
+(`benchmarks/acceleration_noise.py`). A difference over 10 ms passes a mass term's
+acceleration up to 10 Hz within 1.6 % (``sinc``) and changes nothing at a sampling of
+5 ms or slower, where it is the difference of the neighbouring samples.
 
 A velocity column in the file is used as it is (`derivatives` is then not applied to it;
 the acceleration is then the central difference of that column, or ``None`` for
@@ -34,6 +39,9 @@ from jaxfric.motion import smooth_derivatives, velocity
 
 
 DERIVATIVES = ("central", "savgol", "backward")
+
+#: The acceleration is the velocity's central difference over at least this window (s).
+ACCELERATION_WINDOW_S = 0.01
 
 
 def estimate_velocity(t, x, method: str = "central", window_s: float | None = None
@@ -62,16 +70,21 @@ def _check(method, window_s) -> None:
 def estimate_acceleration(t, v, method: str = "central", window_s: float | None = None
                           ) -> np.ndarray | None:
     """The zero-phase acceleration (m/s^2) of velocity `v` (m/s) at times `t` (s): its
-    central difference (over ``+-h`` samples with `window_s`, as `estimate_velocity`), or
-    ``None`` for ``"backward"`` (the model's own backward difference). ``"savgol"`` here
-    (a velocity column) is the central difference too."""
+    central difference over ``+-h`` samples, ``h`` half of `window_s` or of
+    `ACCELERATION_WINDOW_S`, whichever is longer, in sample steps (at least 1; see
+    `jaxfric.motion.velocity`), or ``None`` for ``"backward"`` (the model's own backward
+    difference). ``"savgol"`` here (a velocity column) is the central difference too."""
     _check(method, window_s)
     if method == "backward":
         return None
     t, v = np.asarray(t, np.float64), np.asarray(v, np.float64)
-    if window_s is None:
-        return np.gradient(v, t, edge_order=1) if v.size > 1 else np.zeros_like(v)
-    return velocity(t, v, window_s)
+    if v.size < 2:
+        return np.zeros_like(v)
+    return velocity(t, v, _acceleration_window(window_s))
+
+
+def _acceleration_window(window_s: float | None) -> float:
+    return max(window_s or 0.0, ACCELERATION_WINDOW_S)
 
 
 def estimate_derivatives(t, x, method: str = "central", window_s: float | None = None
@@ -105,8 +118,8 @@ def _acceleration_words(method, window_s, column, of) -> str:
         return "; acceleration: its backward difference (causal)"
     if method == "savgol":
         return "; acceleration: the same filter's second derivative"
-    return (f"; acceleration: central difference {of}"
-            + ("" if window_s is None else f" over {1e3 * window_s:.3g} ms"))
+    return (f"; acceleration: central difference {of} over "
+            f"{1e3 * _acceleration_window(window_s):.3g} ms")
 
 
 def _velocity_words(method: str, window_s: float | None) -> str:

@@ -77,11 +77,15 @@ def test_zero_phase_acceleration_of_a_sine(method):
 def test_acceleration_of_a_velocity_column_and_words():
     t, _x, v, a = _sine(dt=1e-3, T=2.0)
     a_est = fitting.estimate_acceleration(t, v)
-    assert np.max(np.abs(a_est[1:-1] - a[1:-1])) < 1e-4 * np.max(np.abs(a))
+    # A central difference over +-5 ms of a 1 Hz sine: sin(wh)/(wh) = 1 - 1.6e-4; the
+    # first and last 5 samples are one-sided.
+    inner = slice(5, -5)
+    assert np.max(np.abs(a_est[inner] - a[inner])) < 2e-4 * np.max(np.abs(a))
     assert fitting.estimate_acceleration(t, v, "backward") is None
     from fitting._derivatives import describe
 
-    assert "acceleration: central difference of that velocity" in describe("central")
+    assert "acceleration: central difference of that velocity over 10 ms" in describe("central")
+    assert "over 20 ms" in describe("central", window_s=0.02)
     assert "acceleration: the file's column" in describe("central", column=True,
                                                          acceleration_column=True)
     assert "backward difference (causal)" in describe("backward")
@@ -90,10 +94,10 @@ def test_acceleration_of_a_velocity_column_and_words():
 def test_a_mass_is_identified_from_an_encoder_with_the_zero_phase_acceleration():
     """Truth: Stribeck friction of the exact velocity plus 20 kg times the exact
     acceleration along a motion that never stops (v = 0.1 m/s plus a 2 Hz wobble), the
-    position read by a 1 um encoder at 1 ms. With the same zero-phase velocity (central
-    difference over 5 ms), the acceleration by the same method finds the mass to 1 % and
-    leaves under half the error that the backward difference of that velocity leaves
-    (measured: 19.89 kg, 0.86 N against 19.01 kg, 2.49 N)."""
+    position read by a 1 um encoder at 1 ms. With the same zero-phase velocity (the default
+    central difference), the default acceleration (its central difference over 10 ms)
+    finds the mass to 1 % and leaves under half the error that the backward difference of
+    that velocity leaves (measured: 19.97 kg, 0.54 N against 16.26 kg, 4.83 N)."""
     dt, w, amp = 1e-3, 2 * np.pi * 2.0, 0.005
     t = np.arange(0.0, 3.0, dt)
     x_true = 0.1 * t + amp * np.sin(w * t)
@@ -103,7 +107,7 @@ def test_a_mass_is_identified_from_an_encoder_with_the_zero_phase_acceleration()
     F = np.asarray(tus.stribeck(jnp.asarray(v))) + tus.sigma2 * v + 20.0 * a
     x = np.round(x_true / 1e-6) * 1e-6
     start = paper.tustin() + fx.Inertia(mass=5.0)
-    v_est, a_est = fitting.estimate_derivatives(t, x, "central", window_s=5e-3)
+    v_est, a_est = fitting.estimate_derivatives(t, x)
     good = fitting.fit(start, t, x, F, v_est, a=a_est)
     causal = fitting.fit(start, t, x, F, v_est)  # a: the backward difference of v_est
     m_good, m_causal = float(good.params["mass"]), float(causal.params["mass"])
