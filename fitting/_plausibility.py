@@ -18,9 +18,13 @@ simulation (so they hold for every model kind), against the scale of the measure
 
 - **friction curve**: a Stribeck curve whose level at rest ``Fs`` is below 90 % of its
   sliding level ``Fc`` rises with speed. Flagged: over the measured speeds it can stand in
-  for viscous friction or a drag (on the EMPS record the two-state fit traded a viscous
+  for viscous friction or a drag (on the EMPS record a two-state fit once traded a viscous
   coefficient of 203 N s/m for ``Fs`` 10.9 N, ``Fc`` 59.8 N; docs/diagnosis.md), unless the
   contact is velocity-strengthening.
+- **sliding level beyond the data**: at the fastest measured speed the Stribeck curve has
+  covered less than half of its way from ``Fs`` to ``Fc``. Not wrong, but ``Fc`` (and the
+  curve above the measured speeds) is then extrapolation, not measurement (on the EMPS
+  record: ``Vs`` 128 mm/s, the fastest speed 127.8 mm/s, ``Fc`` 0.0003 N).
 
 `steady_state` is also the static curve a report can draw: the force the whole model
 (effects included, e.g. an offset) reaches after sliding at constant speed.
@@ -134,7 +138,7 @@ def plausibility(model, t, x, v, F) -> list[str]:
             f"duration ({stroke_time:.3g} s): the lag acts as a memory of the motion and can "
             "take up slow effects (drift, warm-up, a position-dependent load)")
     flags += _steady_flags(model, t, x, v, pred, level, stroke)
-    return flags + _curve_flags(model)
+    return flags + _curve_flags(model) + _extrapolation_flags(model, v)
 
 
 def _curve_flags(model) -> list[str]:
@@ -151,6 +155,25 @@ def _curve_flags(model) -> list[str]:
             f"sliding): over the measured speeds it can stand in for viscous friction or a "
             f"drag{viscous}; read its values with care unless the contact is "
             "velocity-strengthening"]
+
+
+def _extrapolation_flags(model, v) -> list[str]:
+    """A sliding level the data do not reach (module docstring)."""
+    curve = getattr(model, "stribeck", None)
+    if curve is None or not hasattr(curve, "Fs") or not hasattr(curve, "Fc") or not v.size:
+        return []
+    Fs, Fc = float(curve.Fs), float(curve.Fc)
+    fastest = float(np.max(np.abs(v)))
+    drop = Fs - Fc
+    if fastest == 0 or abs(drop) <= 0.1 * max(abs(Fs), abs(Fc)):
+        return []
+    covered = (Fs - float(curve(np.asarray(fastest)))) / drop
+    if covered >= 0.5:
+        return []
+    return [f"the Stribeck curve's sliding level Fc ({Fc:.4g} N) lies beyond the data: at "
+            f"the fastest measured speed ({1e3 * fastest:.4g} mm/s) the curve has covered "
+            f"{100 * max(covered, 0.0):.3g} % of its way from Fs ({Fs:.4g} N); Fc and the "
+            "curve above that speed are extrapolation"]
 
 
 def _steady_flags(model, t, x, v, pred, level, stroke):

@@ -213,6 +213,17 @@ def test_emps_friction_only_model_finds_inertia_and_error_falls():
     # The published inverse model reaches about 4 % relative error on this record.
     assert d.final.rel_error < 0.06, d.summary()
     assert d.final.rmse < 0.2 * d.baseline.rmse
+    # For the right reasons: the mass and the viscous coefficient of the published inverse
+    # model (95.1 kg, 203.4 N s/m) within 15 %; of the plausibility checks, only the note
+    # that the Stribeck curve's sliding level lies beyond the fastest measured speed. (With
+    # the backward difference of the velocity as acceleration, before the zero-phase one,
+    # the base model traded the viscous term for a rising Stribeck curve: 1.2 N s/m.)
+    final = d.final.fit.model
+    masses = [e.mass for e in final.effects if e.name == "inertia"]
+    assert masses and abs(float(masses[0]) / 95.1 - 1) < 0.15, d.summary()
+    assert abs(float(final.base.sigma2) / 203.4 - 1) < 0.15, d.summary()
+    final_warnings = d.warnings.get("final", [])
+    assert all("beyond the data" in w for w in final_warnings), final_warnings
 
 
 if __name__ == "__main__":

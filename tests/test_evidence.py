@@ -108,6 +108,19 @@ def test_plausibility_flags_a_friction_curve_that_rises_with_speed():
     assert not any("rises with speed" in f for f in plausibility(good, t, x, v, F))
 
 
+def test_plausibility_says_when_the_sliding_level_lies_beyond_the_data():
+    t, x, v = _motion(n=3000)
+    good = jaxfric.paper.two_state()
+    F = np.asarray(jaxfric.simulate(good, t, x, v))
+    fastest = float(np.max(np.abs(v)))
+    assert not any("beyond the data" in f for f in plausibility(good, t, x, v, F))
+    # The transition twice as fast as the fastest measured speed: Fc is never reached.
+    far = eqx.tree_at(lambda m: m.stribeck.Vs, good, 2.0 * fastest)
+    flags = plausibility(far, t, x, v, F)
+    assert any("beyond the data" in f and f"{1e3 * fastest:.4g} mm/s" in f
+               for f in flags), flags
+
+
 def test_plausibility_flags_a_lag_that_acts_as_memory():
     t, x, v = _motion(n=3000)
     good = jaxfric.paper.two_state()
