@@ -284,7 +284,8 @@ def run_simulate(args) -> int:
     if _data.joint_layout(args.file):
         from .joints import simulate_joints
 
-        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json)
+        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json,
+                               identification_derivatives)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,

@@ -173,12 +173,16 @@ def _joint_deadband(args, name: str):
     return _deadband_option(args.deadband, args.params)
 
 
-def simulate_joints(args, kind: str, log, model_from_json) -> int:
+def simulate_joints(args, kind: str, log, model_from_json, identification_derivatives
+                    ) -> int:
     """Each joint's model along its motion; one CSV: ``t``, then per joint i ``x{i}``,
-    ``v{i}``, ``F_model{i}`` (and the measured ``F{i}``), in the file's units."""
+    ``v{i}``, ``F_model{i}`` (and the measured ``F{i}``), in the file's units; the
+    velocity and acceleration from `identification_derivatives` (as a fit takes them)."""
     import jaxfric
 
     from ._signals import _load_of, played_measurement
+
+    args.derivatives = args.derivatives or "central"
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
@@ -189,11 +193,14 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
         model, what = models[name]
         log(f"{name}: {what}")
         m, _ = played_measurement(m, _joint_deadband(args, name), log)
-        out = jaxfric.simulate(model, m.t, m.x, m.v, full_output=True,
-                               load=_load_of(m, model))
+        # The velocity and acceleration the joint's fit or diagnosis used (its columns, or
+        # the same zero-phase estimates), so that the force is its prediction.
+        v, a, _ = identification_derivatives(m, args, log)
+        out = jaxfric.simulate(model, m.t, m.x, v, full_output=True,
+                               load=_load_of(m, model), a=a)
         force, i = np.asarray(out.force), name.split()[-1]
         cols[f"x{i}[{m.unit('x')}]"] = m.x
-        cols[f"v{i}[{m.unit('v')}]"] = m.velocity()
+        cols[f"v{i}[{m.unit('v')}]"] = v
         cols[f"F_model{i}[{m.unit('F')}]"] = force
         if m.force is not None:
             cols[f"{m.force_column}{i}[{m.unit('F')}]"] = m.force
