@@ -1,5 +1,6 @@
 """The command line as a user runs it: a subprocess on good and bad files."""
 
+import html
 import json
 import os
 import subprocess
@@ -213,6 +214,12 @@ def test_diagnose_json_schema_and_report(tmp_path):
     for name in ("time.png", "loops.png", "residuals.png"):
         assert (report / name).stat().st_size > 10_000
     assert json.loads((report / "diagnosis.json").read_text()) == d
+    # The page says how the derivatives were taken and what the plausibility checks found.
+    page = (report / "report.html").read_text()
+    assert html.escape(f"velocity: {d['velocity']}") in page
+    assert "Plausibility of the fitted models" in page
+    assert all(html.escape(w) in page for ws in d["warnings"].values() for w in ws) \
+        if d["warnings"] else "no warning" in page
 
 
 def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):

@@ -59,11 +59,17 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
               for before, s in zip([d.baseline, *d.steps], d.steps)]
     code = "".join(f"<li><code>{html.escape(c.code)}</code></li>" for c in d.candidates
                    if c.name in d.final.added)
+    flags = "".join(f"<li>{which} model: {html.escape(_units.speak(w, kind))}</li>"
+                    for which, ws in d.warnings.items() for w in ws)
+    how = [d.velocity and f"velocity: {d.velocity}", d.search and f"search: {d.search}"]
     parts = [
         f"<h1>{html.escape(title)}</h1>",
         f"<p>{intro}</p>" if intro else "",
+        "".join(f"<p>{html.escape(_units.speak(h, kind))}</p>" for h in how if h),
         "<h2>Error as effects are added</h2>",
         _table(["model", f"RMSE [{unit}]", f"held-out RMSE [{unit}]", "relative"], steps),
+        "<h2>Plausibility of the fitted models</h2>",
+        f"<ul>{flags or '<li>no warning</li>'}</ul>",
         "<h2>Candidate effects (first ranking, on the baseline's residual)</h2>",
         "<p>score = fraction of the held-out residual variance removed; significant = score "
         "&ge; 0.05 and consistent over held-out blocks (t &ge; 3).</p>",
