@@ -128,7 +128,8 @@ def _batch_as_simulated(result: FitResult, checked: Sequence[Dataset], F) -> Fit
     for i, d in enumerate(checked):
         model = jax.tree.map(lambda a, i=i: a[i], result.fit_model)
         if _finite(model):
-            pred[i, : d.t.shape[0]] = np.asarray(jaxfric.simulate(model, d.t, d.x, d.v))
+            pred[i, : d.t.shape[0]] = np.asarray(jaxfric.simulate(model, d.t, d.x, d.v,
+                                                                  a=d.a))
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), result,
                        (jnp.asarray(pred), jnp.asarray(pred - np.asarray(F))))
 
@@ -230,11 +231,13 @@ def fit_batch(
     reparameterize: bool = True,
     devices: Sequence[jax.Device] | None = None,
     vectorize: bool = False,
+    a=None,
 ) -> FitResult:
     """Fit `model` separately to each of B datasets in one compiled call.
 
-    `t`, `x`, `F`, `v`, `weights` are arrays of shape ``(B, n)``, or sequences of B 1-D arrays
-    of different lengths (padded to the longest with weight-0 samples). Every dataset starts
+    `t`, `x`, `F`, `v`, `weights`, `a` (the acceleration, as for `fit`) are arrays of shape
+    ``(B, n)``, or sequences of B 1-D arrays of different lengths (padded to the longest
+    with weight-0 samples). Every dataset starts
     from the same `model`. Other arguments are as for `fit`.
 
     **Returns:** a `FitResult` whose arrays have a leading axis B (``result[i]`` is dataset i;
@@ -269,12 +272,13 @@ def fit_batch(
     def item(a, i):
         return None if a is None else a[i]
 
-    for name, a in (("x", x), ("F", F), ("v", v), ("weights", weights)):
-        if a is not None and len(a) != count:
-            raise ValueError(f"{name} has {len(a)} datasets, t has {count}")
+    for name, arr in (("x", x), ("F", F), ("v", v), ("weights", weights), ("a", a)):
+        if arr is not None and len(arr) != count:
+            raise ValueError(f"{name} has {len(arr)} datasets, t has {count}")
     checked = [
         check_dataset(
-            Dataset(t=t[i], x=x[i], F=F[i], v=item(v, i), weights=item(weights, i)),
+            Dataset(t=t[i], x=x[i], F=F[i], v=item(v, i), weights=item(weights, i),
+                    a=item(a, i)),
             where=f"dataset {i}: ", check_force=False,
         )
         for i in range(count)

@@ -139,3 +139,26 @@ def test_command_line_reads_an_acceleration_column(tmp_path):
     sim = np.genfromtxt(tmp_path / "sim.csv", delimiter=",", names=True)
     base = np.asarray(jaxfric.simulate(paper.tustin(), t, x, v))
     np.testing.assert_allclose(sim["F_modelN"] - base, 4.0 * a, rtol=0, atol=1e-9)
+
+
+def test_batch_fit_takes_the_acceleration_of_each_dataset():
+    """`fit_batch(..., a=)`: each dataset's mass as `fit` finds it with the same input."""
+    rows = []
+    for mass, f in ((12.0, 1.5), (30.0, 2.5)):
+        dt, w, amp = 2e-3, 2 * np.pi * f, 0.004
+        t = np.arange(0.0, 2.0, dt)
+        x = 0.1 * t + amp * np.sin(w * t)
+        v = 0.1 + amp * w * np.cos(w * t)
+        a = -amp * w**2 * np.sin(w * t)
+        F = np.asarray(paper.tustin().stribeck(jnp.asarray(v))) + mass * a
+        rows.append((t, x, v, a, F))
+    t, x, v, a, F = (np.stack(c) for c in zip(*rows))
+    start = paper.tustin() + fx.Inertia(mass=5.0)
+    batch = fitting.fit_batch(start, t, x, F, v, a=a, free=["mass", "Fc", "Fs"])
+    for i, mass in enumerate((12.0, 30.0)):
+        one = fitting.fit(start, t[i], x[i], F[i], v[i], a=a[i], free=["mass", "Fc", "Fs"])
+        # Exact data: the mass to 1e-6 (the backward difference of v would miss it by
+        # about 1e-3); the same as `fit` to the solvers' tolerance.
+        assert float(batch[i].params["mass"]) == pytest.approx(mass, rel=1e-6)
+        assert float(batch[i].params["mass"]) == pytest.approx(float(one.params["mass"]),
+                                                               rel=1e-5)
