@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import fitting
+from jaxfric.motion import velocity
 from jaxfric.synthetic import measurement
 
 
@@ -42,7 +43,7 @@ def row(dt: float, kind: str) -> dict:
     t, x, _ = measurement("two_state_power", ("inertia",), noise=0.03, dt=dt, seed=3)
     v, a = fitting.estimate_derivatives(t, x)
     if kind == "backward":
-        a = np.r_[0.0, np.diff(v) / np.diff(t)]
+        a = velocity(t, v)  # without a window: the backward difference
     elif kind == "neighbours":
         a = np.gradient(v, t)
     k = max(1, round(SMOOTH_S / dt))

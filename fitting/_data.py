@@ -149,9 +149,9 @@ def stack(datasets: list[Dataset], n: int | None = None) -> Dataset:
     for d in datasets:
         if any_v and d.v is None:
             d = dataclasses.replace(d, v=velocity(d.t, d.x))
-        if any_a and d.a is None:
-            v = velocity(d.t, d.x) if d.v is None else d.v
-            d = dataclasses.replace(d, a=np.r_[0.0, np.diff(v) / np.diff(d.t)])
+        if any_a and d.a is None:  # `velocity` without a window: the backward difference
+            d = dataclasses.replace(d, a=velocity(d.t, velocity(d.t, d.x) if d.v is None
+                                                  else d.v))
         padded.append(pad(d, n))
 
     def field(name):

@@ -50,16 +50,16 @@ def identification_derivatives(m, args, log):
     from .._derivatives import estimate_acceleration, estimate_derivatives
 
     window = args.velocity_window
+    v, a = m.v, m.a
     try:
-        if m.v is not None:
-            v, a = m.v, estimate_acceleration(m.t, m.v, args.derivatives, window)
-        else:
-            v, a = estimate_derivatives(m.t, m.x, args.derivatives, window)
+        if v is None:
+            v, estimate = estimate_derivatives(m.t, m.x, args.derivatives, window)
+            a = estimate if a is None else a
+        elif a is None:
+            a = estimate_acceleration(m.t, v, args.derivatives, window)
     except ValueError as e:
         raise _data.DataError(str(e)) from None
     words = velocity_words(m, args)
-    if m.a is not None:
-        a = m.a
     if m.v is None or m.a is None:
         log(f"velocity: {words}")
     return v, a, words
