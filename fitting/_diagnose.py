@@ -43,8 +43,12 @@ held-out RMSE after each addition is reported; an addition whose refit removes l
 significant candidate is tried. When nothing is significant but the best score is at least
 ``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
 that candidate is tried too, and kept only if the refit's held-out improvement is
-consistent where it acts (``t`` at least `min_t`). A candidate tried and not added says why
-in its evidence.
+consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is large (at
+least `fitting._evidence.STRONG_SHARE`) but not consistent on the one split, as for an
+effect that acts in a regime the motion visits a few times, is refitted with each of the
+other two folds of blocks held out in turn (`fitting._folds`), and the same rule on the
+evidence of all three folds decides. A candidate tried and not added says why in its
+evidence.
 
 After the last step the baseline and final models are checked for plausibility
 (`fitting._plausibility`: presliding range against the strokes, lag time against their
@@ -77,6 +81,7 @@ import numpy as np
 from ._candidates import _code, Candidate
 from ._diagnose_context import _contained, _Context, _context, effect_names, Step
 from ._evidence import convincing, evidence, needs, STRONG_SHARE
+from ._folds import on_all_folds
 from ._plausibility import plausibility
 from ._result import saved_model
 from ._screen import _base_jacobian, _joint_check, _pair_screen, _screen
@@ -244,22 +249,46 @@ def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
     # The refit is the model itself: its held-out gain must be convincing (a linearised
     # screen can pass on the model's mismatch alone), or, for a candidate whose screen was
     # consistent, at least large (a slow drift has too few batches for any t).
-    if enough and (convincing(removed, t_refit, ctx.min_t)
-                   or (chosen.significant and removed >= STRONG_SHARE)):
+    held = enough and (convincing(removed, t_refit, ctx.min_t)
+                       or (chosen.significant and removed >= STRONG_SHARE))
+    folds = _folds(ctx, state, trial, trial_resid, [chosen.name], enough and not held
+                   and removed >= STRONG_SHARE)
+    if held or (folds is not None and convincing(folds.removed, folds.t, ctx.min_t)):
         if not chosen.significant:
             chosen.significant, chosen.t_stat = True, t_refit
         chosen.evidence += (f"; confirmed by the joint refit: it removed "
                             f"{100 * removed:.3g} % of the held-out SSE, consistent over "
                             f"{n_blocks} held-out batches (t = {t_refit:.1f})")
+        if folds is not None:
+            chosen.t_stat = folds.t
+            chosen.evidence += f", and {folds.words()}"
         return trial, trial_resid
     why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
            f"{50 * ctx.min_score:.3g} %)" if not enough else
            f"its gain in the joint refit was not consistent (t = {t_refit:.1f}, "
            f"{needs(ctx.min_t)}; it removed {100 * removed:.3g} %)")
+    if folds is not None:
+        why += f", nor {folds.words()}"
     ctx.log(f"  {chosen.name} not added: {why}")
     chosen.evidence += f"; not added: {why}"
     chosen.significant = False
     return None
+
+
+def _folds(ctx: _Context, state: _State, trial, trial_resid, names_new, needed: bool):
+    """When `needed` (a large held-out gain, inconsistent on the one split), the evidence of
+    all three held-out folds (`fitting._folds`), also kept in the last trial's record;
+    else None."""
+    if not needed:
+        return None
+    ctx.log("  a large gain on few held-out episodes: refitting with each of the other "
+            "two folds held out ...")
+    folds = on_all_folds(ctx, state.current, list(state.added), trial.fit.model,
+                         [*state.added, *names_new], state.resid, trial_resid)
+    ctx.log(f"  {folds.words()}")
+    state.trials[-1]["folds"] = {"removed": folds.removed, "batches": folds.batches,
+                                 "t": folds.t if np.isfinite(folds.t) else None}
+    return folds
 
 
 def _closest_call(ctx: _Context, held):
@@ -359,7 +388,12 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
         out = _refit(ctx, state, pair.effects, names_pair)
         ctx.log(f"  held-out RMSE {out[0].rmse_holdout:.4g} N (was {state.best_holdout:.4g} "
                 f"N), consistency where they act t = {out[3]:.1f}")
-        if out[2] and convincing(out[5], out[3], ctx.min_t):
+        held = out[2] and convincing(out[5], out[3], ctx.min_t)
+        folds = _folds(ctx, state, out[0], out[1], names_pair,
+                       out[2] and not held and out[5] >= STRONG_SHARE)
+        if held or (folds is not None and convincing(folds.removed, folds.t, ctx.min_t)):
+            if folds is not None:  # the evidence of all three folds
+                out = (*out[:3], folds.t, folds.batches, out[5])
             tried.append((out, pair))
     if not tried:
         return None, None, None

@@ -1,0 +1,49 @@
+"""The three-fold confirmation of a diagnosis refit (`fitting._folds`): every sample held
+out once, a real effect confirmed with three times the batches, a refit that adds nothing
+credited with nothing."""
+
+import functools
+
+import fitting
+from fitting._diagnose_context import _context
+from fitting._folds import on_all_folds
+from jaxfric import effects as fx
+from jaxfric.examples import hidden_effect_measurement
+
+
+@functools.cache
+def _setup(effect):
+    t, x, F, _ = hidden_effect_measurement(effect, dt=0.04, seed=3)
+    model = fitting.initial_model("two-state", t, x, F)
+    ctx = _context(model, t, x, F, None, blocks=24, max_steps=200, fixed=(), min_score=0.05,
+                   min_t=3.0, log=None, derivatives="backward", velocity_window=None)
+    base, resid = ctx.step(ctx.model, [])
+    trial, trial_resid = ctx.step(base.fit.model + fx.Offset(offset=0.0), ["offset"])
+    return ctx, base, resid, trial, trial_resid
+
+
+def test_a_real_offset_is_confirmed_on_all_folds_with_more_batches():
+    ctx, base, resid, trial, trial_resid = _setup("offset")
+    one = fitting._evidence.evidence(resid, trial_resid, ctx.test, ctx.v_arr)
+    folds = on_all_folds(ctx, base.fit.model, [], trial.fit.model, ["offset"], resid,
+                         trial_resid)
+    assert folds.removed > 0.5, folds
+    assert folds.t >= 3.0, folds
+    # Every sample is held out once: about three times the single split's batches.
+    assert folds.batches >= 2 * one.batches, (folds, one)
+    assert "all three held-out folds" in folds.words()
+
+
+def test_a_refit_that_adds_nothing_gains_nothing():
+    ctx, base, resid, *_ = _setup(None)
+    folds = on_all_folds(ctx, base.fit.model, [], base.fit.model, [], resid, resid)
+    # The same model refitted from the same start on the same folds.
+    assert abs(folds.removed) < 1e-9, folds
+    assert not fitting._evidence.convincing(folds.removed, folds.t, ctx.min_t), folds
+
+
+def test_an_offset_on_clean_data_is_not_convincing():
+    ctx, base, resid, trial, trial_resid = _setup(None)
+    folds = on_all_folds(ctx, base.fit.model, [], trial.fit.model, ["offset"], resid,
+                         trial_resid)
+    assert not fitting._evidence.convincing(folds.removed, folds.t, ctx.min_t), folds
