@@ -217,8 +217,23 @@ def simulate(
     return result if full_output else result.force
 
 
+def _checked_batch_input(u, t, name):
+    """A per-sample input of `simulate_many` (`load`, `a`): `t`'s shape and dtype, finite
+    where concrete; None stays None."""
+    if u is None or t.ndim == 1:
+        return _checked_load(u, t, name)
+    u = jnp.asarray(u)
+    if u.shape != t.shape:
+        raise ValueError(f"t and {name} must have the same shape, got {t.shape} and "
+                         f"{u.shape}")
+    if not isinstance(u, jax.core.Tracer) and not np.all(np.isfinite(np.asarray(u))):
+        raise ValueError(f"{name} has a non-finite value")
+    return u.astype(t.dtype)
+
+
 @eqx.filter_jit
-def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True) -> SimResult:
+def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True, load=None,
+              a=None) -> SimResult:
     """`_run` over a batch, `chunk` items at a time (``lax.map`` with ``batch_size``).
     Without `full`, the parts are left out (``{}``): writing four more ``(B, n)`` arrays
     out of the map cost a third more time on the benchmark's Monte-Carlo."""
@@ -227,15 +242,14 @@ def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True) -> S
     params, static = eqx.partition(models, eqx.is_array)
     if model_axis is not None:
         params = jax.tree.map(lambda a: jnp.moveaxis(a, model_axis, 0), params)
+    shared = {"t": t, "x": x, "v": v, "load": load, "a": a}
     mapped = {"p": params if model_axis is not None else None,
-              "t": t if t.ndim == 2 else None, "x": x if x.ndim == 2 else None,
-              "v": v if v is not None and v.ndim == 2 else None}
+              **{k: u if u is not None and u.ndim == 2 else None for k, u in shared.items()}}
 
     def one(item):
         m = eqx.combine(params if item["p"] is None else item["p"], static)
-        out = _run(m, t if item["t"] is None else item["t"],
-                   x if item["x"] is None else item["x"],
-                   v if v is None or item["v"] is None else item["v"], max_reversals)
+        got = {k: shared[k] if item[k] is None else item[k] for k in shared}
+        out = _run(m, got["t"], got["x"], got["v"], max_reversals, got["load"], got["a"])
         return out if full else SimResult(force=out.force, parts={}, overflow=out.overflow)
 
     return jax.lax.map(one, mapped, batch_size=max(1, min(chunk, B)))
@@ -271,6 +285,8 @@ def simulate_many(
     chunk: int = 32,
     full_output: bool = False,
     max_reversals: int | None = None,
+    load: ArrayLike | None = None,
+    a: ArrayLike | None = None,
 ):
     """Friction forces of a batch: many parameter sets (a Monte-Carlo), many motions, or
     both, with the same results as `jax.vmap` over `simulate` but faster on a CPU.
@@ -290,6 +306,8 @@ def simulate_many(
       as a plain ``vmap`` (benchmarks/montecarlo_speed.py); on a GPU use the batch size.
     - `full_output`, `max_reversals`: as in `simulate` (the bound is the largest over the
       batch when computed from concrete data).
+    - `load`, `a`: the transmitted load (N) and the acceleration (m/s^2) as in `simulate`,
+      of the shape of `t` (one per motion for ``(B, n)`` motions).
 
     **Returns:** forces ``(B, n)`` in N (or a `SimResult` with a leading batch axis).
     Warns with `StackOverflowWarning` as `simulate` does.
@@ -309,10 +327,11 @@ def simulate_many(
     if t.shape[-1] < 1:
         raise ValueError("need at least one sample")
     t, x, v = _checked_motion(t, x, v) if t.ndim == 1 else _checked_motions(t, x, v)
+    load, a = (_checked_batch_input(u, t, name) for u, name in ((load, "load"), (a, "a")))
     models = jax.tree.map(_strong, models)
     max_reversals = _max_reversals(models, t, x, v, max_reversals)
     result = _run_many(models, t, x, v, max_reversals, model_axis, operator.index(chunk),
-                       full_output)
+                       full_output, load, a)
     if not isinstance(result.overflow, jax.core.Tracer) and int(jnp.sum(result.overflow)) > 0:
         warnings.warn(
             f"the memory stack overflowed in {int(jnp.sum(result.overflow > 0))} batch "

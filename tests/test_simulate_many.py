@@ -106,3 +106,36 @@ def test_reversal_bound_of_rows_is_the_largest():
     bounds = [jaxfric.reversal_bound(t, a) for a in (small, noisy)]
     assert bounds[0] == 64 and bounds[1] > 64
     assert jaxfric.reversal_bound(np.stack([t, t]), np.stack([small, noisy])) == bounds[1]
+
+
+def test_load_and_acceleration_inputs_reach_every_item():
+    """A model reading the load and the acceleration (`LoadFriction`, `Inertia`): a batch of
+    parameter sets on one motion, and a batch of motions each with its own load and
+    acceleration, give `simulate`'s forces item by item; without `a` they differ (the
+    backward difference of `v` is not the given acceleration)."""
+    from jaxfric import effects as fx
+
+    model = paper.two_state() + (fx.Inertia(mass=2.0), fx.LoadFriction(k_load=0.05))
+    t, x, v = sine_path(n=800)
+    a = np.gradient(v, t) + np.cos(5.0 * t)  # a measured column, with its own errors
+    load = 10.0 * np.sin(3.0 * t)
+    batched, static = _sets(model, 3, seed=4)
+    many = jaxfric.simulate_many(eqx.combine(batched, static), t, x, v, chunk=2, load=load,
+                                 a=a)
+    for j in range(3):
+        one = jaxfric.simulate(_item(batched, static, j), t, x, v, load=load, a=a)
+        np.testing.assert_allclose(many[j], one, rtol=0, atol=1e-9)
+    plain = jaxfric.simulate(_item(batched, static, 0), t, x, v, load=load)
+    assert np.max(np.abs(plain - many[0])) > 1e-3
+    # Motions (B, n), each with its own load and acceleration.
+    T, X, V, A, L = (np.stack([u, u, u]) for u in (t, x, v, a, load))
+    L = L * np.array([[0.5], [1.0], [2.0]])
+    A = A * np.array([[1.0], [0.0], [-1.0]])
+    many = jaxfric.simulate_many(model, T, X, V, model_axis=None, chunk=2, load=L, a=A)
+    for j in range(3):
+        one = jaxfric.simulate(model, t, x, v, load=L[j], a=A[j])
+        np.testing.assert_allclose(many[j], one, rtol=0, atol=1e-9)
+    with pytest.raises(ValueError, match="same shape"):
+        jaxfric.simulate_many(model, T, X, V, model_axis=None, a=a)
+    with pytest.raises(ValueError, match="non-finite"):
+        jaxfric.simulate_many(model, T, X, V, model_axis=None, a=np.full_like(A, np.nan))
