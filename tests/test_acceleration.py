@@ -218,3 +218,12 @@ def test_a_model_with_a_mass_fitted_and_simulated_from_the_command_line(tmp_path
     sim = np.genfromtxt(tmp_path / "sim.csv", delimiter=",", names=True)
     rmse = float(np.sqrt(np.mean((sim["F_modelN"] - F) ** 2)))
     assert rmse == pytest.approx(fit["rmse"], rel=1e-9)
+    # The Python recipe of docs/using_a_model.md ("Reproducing a fit in Python") gives the
+    # same force; without the acceleration (the backward difference) it does not.
+    how = fit["derivatives"]
+    v_est, a_est = fitting.estimate_derivatives(t, x, how["method"], how["window_s"])
+    model = jaxfric.load_model(fit)
+    recipe = np.asarray(jaxfric.simulate(model, t, x, v_est, a=a_est))
+    assert float(np.sqrt(np.mean((recipe - F) ** 2))) == pytest.approx(fit["rmse"], rel=1e-9)
+    plain = np.asarray(jaxfric.simulate(model, t, x, v_est))
+    assert float(np.sqrt(np.mean((plain - F) ** 2))) > 1.05 * fit["rmse"]
