@@ -291,3 +291,32 @@ def test_one_joint_with_robot_names(tmp_path):
     assert "column 'q' read as 'x'" in m.notes and "column 'time' read as 't'" in m.notes
     both = data.load({"t": t, "x": x / 10, "F": F, "tau": 2 * F})  # F present: tau is extra
     assert both.kind == "linear" and "tau" in both.extra
+
+
+def test_joints_are_simulated_with_the_derivatives_each_was_fitted_with(tmp_path):
+    """A joint log without velocity columns fitted with ``--derivatives savgol``: each
+    joint's result records it, and ``simulate --params`` takes the same estimate (its RMSE
+    is the fit's), unless told otherwise (central differences: another force)."""
+    t, x, _, F = _joint()
+    _, x2, _, F2 = _joint(seed=1)
+    robot = _write(tmp_path / "robot.csv", "t[s],q1[rad],tau1[N m],q2[rad],tau2[N m]",
+                   (t, x, F, 2 * x2, F2 / 20))
+    fit, sim, other = (str(tmp_path / k) for k in ("fit.json", "sim.csv", "central.csv"))
+    res = _run({
+        "fit": ["fit", str(robot), "--model", "tustin", "--derivatives", "savgol", "--json",
+                fit],
+        "simulate": ["simulate", str(robot), "--params", fit, "--out", sim],
+        "central": ["simulate", str(robot), "--params", fit, "--derivatives", "central",
+                    "--out", other],
+    })
+    for name, r in res.items():
+        assert r["rc"] == 0, (name, r["stderr"])
+    joints = _json(fit)["joints"]
+    for i, name in ((1, "joint 1"), (2, "joint 2")):
+        assert joints[name]["derivatives"] == {"method": "savgol", "window_s": None}
+        assert "Savitzky-Golay" in joints[name]["velocity"]
+        same, central = (np.loadtxt(p, delimiter=",", skiprows=1) for p in (sim, other))
+        rmse = float(np.sqrt(np.mean((same[:, 4 * i - 1] - same[:, 4 * i]) ** 2)))
+        assert math.isclose(rmse, joints[name]["rmse"], rel_tol=1e-9), name
+        moved = float(np.sqrt(np.mean((central[:, 4 * i - 1] - central[:, 4 * i]) ** 2)))
+        assert not math.isclose(moved, rmse, rel_tol=1e-6), name

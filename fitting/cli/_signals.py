@@ -1,9 +1,12 @@
-"""The signals the commands take from a file besides the motion: the deadband played on
-the positions (``--deadband``, default 'auto': `jaxfric.motion.deadband_choice`) and the
-``load`` column a model with load-dependent friction needs; shared by the one-file
-commands and those of several joints."""
+"""The signals the commands take from a file besides the positions: the velocity and
+acceleration for identification (the file's columns or zero-phase estimates,
+``--derivatives``; a result's JSON says which, so that ``simulate --params`` takes them the
+same way), the deadband played on the positions (``--deadband``, default 'auto':
+`jaxfric.motion.deadband_choice`) and the ``load`` column a model with load-dependent
+friction needs; shared by the one-file commands and those of several joints."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -87,3 +90,73 @@ def _deadband_option(text, params):
     if not value >= 0:
         raise _data.DataError(f"--deadband must be >= 0, got {value}")
     return value
+
+
+def identification_derivatives(m, args, log):
+    """``(v, a, words)``: the file's velocity column or the estimate `args.derivatives` asks
+    for (`fitting._derivatives`), the acceleration the same way (the file's column, or
+    None: the model's backward difference), and how both were obtained."""
+    from .._derivatives import estimate_acceleration, estimate_derivatives
+
+    window = args.velocity_window
+    v, a = m.v, m.a
+    try:
+        if v is None:
+            v, estimate = estimate_derivatives(m.t, m.x, args.derivatives, window)
+            a = estimate if a is None else a
+        elif a is None:
+            a = estimate_acceleration(m.t, v, args.derivatives, window)
+    except ValueError as e:
+        raise _data.DataError(str(e)) from None
+    words = velocity_words(m, args)
+    if m.v is None or m.a is None:
+        log(f"velocity: {words}")
+    return v, a, words
+
+
+def velocity_words(m, args) -> str:
+    """How `identification_derivatives` obtains the velocity and acceleration of `m`."""
+    from .._derivatives import describe as words
+
+    return words(args.derivatives, args.velocity_window, column=m.v is not None,
+                 acceleration_column=m.a is not None)
+
+
+def derivatives_json(m, args) -> dict | None:
+    """How the velocity and acceleration were estimated, for a result's JSON (`simulate
+    --params` reads it back); None when the file had both columns (nothing estimated)."""
+    if m.v is not None and m.a is not None:
+        return None
+    return {"method": args.derivatives, "window_s": args.velocity_window}
+
+
+def _saved_derivatives(path) -> dict:
+    """The ``"derivatives"`` entry of a result JSON (already checked by `model_from_json`),
+    or an empty dict."""
+    try:
+        spec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return {}
+    return saved_derivatives(spec)
+
+
+def saved_derivatives(spec) -> dict:
+    """The ``"derivatives"`` entry of a parsed result (or of one joint's entry), or an empty
+    dict."""
+    entry = spec.get("derivatives") if isinstance(spec, dict) else None
+    return entry if isinstance(entry, dict) else {}
+
+
+def derivatives_as_saved(args, saved: dict):
+    """`args` with the velocity estimate of a result's ``"derivatives"`` entry `saved`
+    where the command line chose none (so that a model's force is its fit's prediction),
+    else ``"central"``; a copy, `args` is left alone."""
+    import argparse
+
+    out = argparse.Namespace(**vars(args))
+    if out.derivatives is None and saved.get("method"):
+        out.derivatives = saved["method"]
+        if out.velocity_window is None:
+            out.velocity_window = saved.get("window_s")
+    out.derivatives = out.derivatives or "central"
+    return out

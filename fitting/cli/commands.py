@@ -27,7 +27,17 @@ from ._io import (
     result_json,
 )
 from ._output import atomic_file, write_json
-from ._signals import _deadband_option, _load_json, _load_of, played_measurement
+from ._signals import (
+    _deadband_option,
+    _load_json,
+    _load_of,
+    _saved_derivatives,
+    derivatives_as_saved,
+    derivatives_json,
+    identification_derivatives,
+    played_measurement,
+    velocity_words,
+)
 from .plots import plot_fit
 
 
@@ -41,55 +51,6 @@ def _progress(log, scale: float, unit: str):
             f"({p.seconds:.0f} s)")
 
     return show
-
-
-def identification_derivatives(m, args, log):
-    """``(v, a, words)``: the file's velocity column or the estimate `args.derivatives` asks
-    for (`fitting._derivatives`), the acceleration the same way (the file's column, or
-    None: the model's backward difference), and how both were obtained."""
-    from .._derivatives import estimate_acceleration, estimate_derivatives
-
-    window = args.velocity_window
-    v, a = m.v, m.a
-    try:
-        if v is None:
-            v, estimate = estimate_derivatives(m.t, m.x, args.derivatives, window)
-            a = estimate if a is None else a
-        elif a is None:
-            a = estimate_acceleration(m.t, v, args.derivatives, window)
-    except ValueError as e:
-        raise _data.DataError(str(e)) from None
-    words = velocity_words(m, args)
-    if m.v is None or m.a is None:
-        log(f"velocity: {words}")
-    return v, a, words
-
-
-def velocity_words(m, args) -> str:
-    """How `identification_derivatives` obtains the velocity and acceleration of `m`."""
-    from .._derivatives import describe as words
-
-    return words(args.derivatives, args.velocity_window, column=m.v is not None,
-                 acceleration_column=m.a is not None)
-
-
-def derivatives_json(m, args) -> dict | None:
-    """How the velocity was obtained, for a result's JSON (`simulate --params` reads it
-    back); None when the file had a velocity column."""
-    if m.v is not None:
-        return None
-    return {"method": args.derivatives, "window_s": args.velocity_window}
-
-
-def _saved_derivatives(path) -> dict:
-    """The ``"derivatives"`` entry of a result JSON (already checked by `model_from_json`),
-    or an empty dict."""
-    try:
-        spec = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return {}
-    entry = spec.get("derivatives") if isinstance(spec, dict) else None
-    return entry if isinstance(entry, dict) else {}
 
 
 def run_fit(args) -> int:
@@ -284,8 +245,7 @@ def run_simulate(args) -> int:
     if _data.joint_layout(args.file):
         from .joints import simulate_joints
 
-        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json,
-                               identification_derivatives)
+        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
@@ -299,17 +259,12 @@ def run_simulate(args) -> int:
             raise _data.DataError(f"{args.params}: the model was fitted to {fitted_on} data, "
                                   f"{m.source} is {m.kind} (declare its units or --kind)")
         log(f"model: {what}")
-        saved = _saved_derivatives(args.params)
-        if args.derivatives is None and saved.get("method"):
-            # The velocity the fit used, so that the model's force is the fit's prediction.
-            args.derivatives = saved["method"]
-            if args.velocity_window is None:
-                args.velocity_window = saved.get("window_s")
     else:
         model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
                  "tustin": paper.tustin}[kind]()
         log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
-    args.derivatives = args.derivatives or "central"
+    # The velocity the fit used, so that the model's force is the fit's prediction.
+    args = derivatives_as_saved(args, _saved_derivatives(args.params) if args.params else {})
     m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, a, _ = identification_derivatives(m, args, log)
     model = _with_stack_size(model, args.stack_size)

@@ -19,6 +19,16 @@ from jaxfric import data as _data
 
 from ._io import cli_kind, diagnosis_json, param_units, parse_units, print_warnings, result_json
 from ._output import atomic_file, write_json
+from ._signals import (
+    _deadband_option,
+    _load_of,
+    derivatives_as_saved,
+    derivatives_json,
+    identification_derivatives,
+    played_measurement,
+    saved_derivatives,
+    velocity_words,
+)
 
 
 def load_joints_for_cli(args, log, **options) -> dict:
@@ -61,7 +71,6 @@ def summary_table(results: dict, joints: dict) -> str:
 
 def fit_joints(args, kind: str, log, fit_measurement) -> int:
     """`fit_measurement` (`fitting.cli.commands`) on each joint, then the joints' table."""
-    from ._signals import _deadband_option, played_measurement
     from .plots import plot_fit
 
     joints = load_joints_for_cli(args, log)
@@ -76,6 +85,8 @@ def fit_joints(args, kind: str, log, fit_measurement) -> int:
         first = next(iter(joints.values()))
         write_json(args.json, {"file": str(args.file), "kind": first.kind,
                                "joints": {n: {**result_json(kind, results[n], joints[n]),
+                                              "velocity": velocity_words(joints[n], args),
+                                              "derivatives": derivatives_json(joints[n], args),
                                               **deadbands[n]} for n in joints}})
         log(f"JSON written to {args.json}")
     if args.plot:
@@ -159,7 +170,6 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
 def _joint_deadband(args, name: str):
     """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
     a several-joint ``--params`` (or at the top of a one-model ``--params``), else 'auto'."""
-    from ._signals import _deadband_option
 
     if args.deadband is None and args.params:
         try:
@@ -173,20 +183,33 @@ def _joint_deadband(args, name: str):
     return _deadband_option(args.deadband, args.params)
 
 
-def simulate_joints(args, kind: str, log, model_from_json, identification_derivatives
-                    ) -> int:
+def _joint_derivatives(params, joints) -> dict:
+    """``{joint: "derivatives" entry}`` of the result JSON `params` (a several-joint result:
+    each joint's own; a one-axis result: its entry for every joint; none: empty)."""
+    if not params:
+        return {name: {} for name in joints}
+    try:
+        spec = json.loads(Path(params).read_text())
+    except (OSError, ValueError):
+        return {name: {} for name in joints}
+    per_joint = spec.get("joints") if isinstance(spec, dict) else None
+    if isinstance(per_joint, dict):
+        return {name: saved_derivatives(per_joint.get(name)) for name in joints}
+    return dict.fromkeys(joints, saved_derivatives(spec))
+
+
+def simulate_joints(args, kind: str, log, model_from_json) -> int:
     """Each joint's model along its motion; one CSV: ``t``, then per joint i ``x{i}``,
     ``v{i}``, ``F_model{i}`` (and the measured ``F{i}``), in the file's units; the
-    velocity and acceleration from `identification_derivatives` (as a fit takes them)."""
+    velocity and acceleration from `identification_derivatives` as the joint's fit or
+    diagnosis took them (its saved ``"derivatives"``, unless ``--derivatives`` says)."""
     import jaxfric
 
-    from ._signals import _load_of, played_measurement
-
-    args.derivatives = args.derivatives or "central"
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
     models = _joint_models(args, kind, joints, model_from_json)
+    saved = _joint_derivatives(args.params, joints)
     first = next(iter(joints.values()))
     cols = {f"t[{first.unit('t')}]": first.t}
     for name, m in joints.items():
@@ -195,7 +218,7 @@ def simulate_joints(args, kind: str, log, model_from_json, identification_deriva
         m, _ = played_measurement(m, _joint_deadband(args, name), log)
         # The velocity and acceleration the joint's fit or diagnosis used (its columns, or
         # the same zero-phase estimates), so that the force is its prediction.
-        v, a, _ = identification_derivatives(m, args, log)
+        v, a, _ = identification_derivatives(m, derivatives_as_saved(args, saved[name]), log)
         out = jaxfric.simulate(model, m.t, m.x, v, full_output=True,
                                load=_load_of(m, model), a=a)
         force, i = np.asarray(out.force), name.split()[-1]
