@@ -37,7 +37,9 @@ JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or -
 earlier run, for a change that can only affect those (its ``"rerun"`` lists them).
 The full bench (3 truths x 2 noise levels x 2 rates x 14 files) takes hours on two cores;
 ``--quick`` runs one truth, one noise level and one rate (14 files). The files are made by
-`jaxfric.synthetic.measurement`.
+`jaxfric.synthetic.measurement`. ``--start gms`` (or lugre, tustin) diagnoses from another
+model than the two-state one (`fitting.initial_model`): do the effects found depend on it?
+(Each row then says ``"start"``.)
 """
 
 import argparse
@@ -68,8 +70,9 @@ def run_case(case: dict) -> dict:
     t0 = time.perf_counter()
     t, x, F = measurement(case["truth"], tuple(case["hidden"]), case["noise"], case["dt"],
                           case["seed"])
-    start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
-    d = fitting.diagnose(start, t, x, F, model_name="two-state")
+    kind = case.get("start", "two-state")
+    start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
+    d = fitting.diagnose(start, t, x, F, model_name=kind)
     ranked = [c.name for c in sorted(d.candidates, key=lambda c: -c.score)]
     return {**case, "samples": int(t.size), "added": list(d.final.added),
             "rmse_holdout_clean": clean_holdout(case, start, d.holdout),
@@ -114,7 +117,8 @@ def absorbed(row: dict) -> bool:
     return bool(row["hidden"]) and row["rmse_holdout_before"] < (1 + ABSORBED) * clean
 
 
-def cases(quick: bool, truths=None, rates=None, noises=None) -> list[dict]:
+def cases(quick: bool, truths=None, rates=None, noises=None, start="two-state"
+          ) -> list[dict]:
     truths = truths or (TRUTHS[:1] if quick else TRUTHS)
     rates = rates or (RATES[:1] if quick else RATES)
     noises = noises or (NOISES[:1] if quick else NOISES)
@@ -125,7 +129,8 @@ def cases(quick: bool, truths=None, rates=None, noises=None) -> list[dict]:
             for dt in rates:
                 for k, h in enumerate(hidden):
                     out.append({"truth": truth, "noise": noise, "dt": dt, "hidden": list(h),
-                                "seed": k})
+                                "seed": k, **({} if start == "two-state" else
+                                              {"start": start})})
     return out
 
 
@@ -277,7 +282,7 @@ def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
     """`files` with the rows of the same file (truth, hidden, noise, sampling) as in `new`
     replaced by those."""
     def key(r):
-        return r["truth"], tuple(r["hidden"]), r["noise"], r["dt"]
+        return r["truth"], tuple(r["hidden"]), r["noise"], r["dt"], r.get("start")
 
     fresh = {key(r): r for r in new}
     return [fresh.get(key(r), r) for r in files]
@@ -329,6 +334,10 @@ def main(argv=None) -> int:
                     "(fitting._search_copy)")
     ap.add_argument("--noises", help="comma-separated force noise levels in N (default: "
                     f"{', '.join(map(str, NOISES))}; --quick: the first)")
+    ap.add_argument("--start", default="two-state",
+                    choices=("two-state", "gms", "lugre", "tustin"),
+                    help="the model the diagnosis starts from (fitting.initial_model; "
+                    "default %(default)s): do the effects found depend on it?")
     ap.add_argument("--update", metavar="JSON",
                     help="re-run only these files (with --only, --truths) and write JSON: the "
                     "run in this JSON with their rows replaced, summaries recomputed, and "
@@ -344,7 +353,7 @@ def main(argv=None) -> int:
         return [float(v) for v in text.split(",")] if text else None
 
     todo = cases(args.quick, args.truths.split(",") if args.truths else None,
-                 floats(args.rates), floats(args.noises))
+                 floats(args.rates), floats(args.noises), args.start)
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
