@@ -253,7 +253,7 @@ def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
                        or (chosen.significant and removed >= STRONG_SHARE))
     folds = _folds(ctx, state, trial, trial_resid, [chosen.name], enough and not held
                    and removed >= STRONG_SHARE)
-    if held or (folds is not None and convincing(folds.removed, folds.t, ctx.min_t)):
+    if held or (folds is not None and folds.holds(ctx.min_t, ctx.min_score)):
         if not chosen.significant:
             chosen.significant, chosen.t_stat = True, t_refit
         chosen.evidence += (f"; confirmed by the joint refit: it removed "
@@ -287,7 +287,9 @@ def _folds(ctx: _Context, state: _State, trial, trial_resid, names_new, needed: 
                          [*state.added, *names_new], state.resid, trial_resid)
     ctx.log(f"  {folds.words()}")
     state.trials[-1]["folds"] = {"removed": folds.removed, "batches": folds.batches,
-                                 "t": folds.t if np.isfinite(folds.t) else None}
+                                 "t": folds.t if np.isfinite(folds.t) else None,
+                                 "shares_where_it_acts": list(folds.shares),
+                                 "where": folds.where}
     return folds
 
 
@@ -391,7 +393,7 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
         held = out[2] and convincing(out[5], out[3], ctx.min_t)
         folds = _folds(ctx, state, out[0], out[1], names_pair,
                        out[2] and not held and out[5] >= STRONG_SHARE)
-        if held or (folds is not None and convincing(folds.removed, folds.t, ctx.min_t)):
+        if held or (folds is not None and folds.holds(ctx.min_t, ctx.min_score)):
             if folds is not None:  # the evidence of all three folds
                 out = (*out[:3], folds.t, folds.batches, out[5])
             tried.append((out, pair))

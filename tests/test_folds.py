@@ -32,6 +32,9 @@ def test_a_real_offset_is_confirmed_on_all_folds_with_more_batches():
     # Every sample is held out once: about three times the single split's batches.
     assert folds.batches >= 2 * one.batches, (folds, one)
     assert "all three held-out folds" in folds.words()
+    # An offset acts everywhere: it removes most of the error in each fold.
+    assert len(folds.shares) == 3 and folds.replicated(), folds
+    assert folds.holds(ctx.min_t, ctx.min_score)
 
 
 def test_a_refit_that_adds_nothing_gains_nothing():
@@ -39,7 +42,8 @@ def test_a_refit_that_adds_nothing_gains_nothing():
     folds = on_all_folds(ctx, base.fit.model, [], base.fit.model, [], resid, resid)
     # The same model refitted from the same start on the same folds.
     assert abs(folds.removed) < 1e-9, folds
-    assert not fitting._evidence.convincing(folds.removed, folds.t, ctx.min_t), folds
+    assert not folds.holds(ctx.min_t, ctx.min_score), folds
+    assert not folds.replicated() and not folds.holds(ctx.min_t, ctx.min_score), folds
 
 
 def test_an_offset_on_clean_data_is_not_convincing():
@@ -47,3 +51,4 @@ def test_an_offset_on_clean_data_is_not_convincing():
     folds = on_all_folds(ctx, base.fit.model, [], trial.fit.model, ["offset"], resid,
                          trial_resid)
     assert not fitting._evidence.convincing(folds.removed, folds.t, ctx.min_t), folds
+    assert not folds.replicated() and not folds.holds(ctx.min_t, ctx.min_score), folds
