@@ -46,9 +46,9 @@ that candidate is tried too, and kept only if the refit's held-out improvement i
 consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is large (at
 least `fitting._evidence.STRONG_SHARE`) but not consistent on the one split, as for an
 effect that acts in a regime the motion visits a few times, is refitted with each of the
-other two folds of blocks held out in turn (`fitting._folds`), and the same rule on the
-evidence of all three folds decides. A candidate tried and not added says why in its
-evidence.
+other two folds of blocks held out in turn (`fitting._folds`); it is added when the
+evidence of all three folds passes the same rule, or when its gain replicates where its
+term is large, in each fold. A candidate tried and not added says why in its evidence.
 
 After the last step the baseline and final models are checked for plausibility
 (`fitting._plausibility`: presliding range against the strokes, lag time against their
@@ -256,12 +256,16 @@ def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
     if held or (folds is not None and folds.holds(ctx.min_t, ctx.min_score)):
         if not chosen.significant:
             chosen.significant, chosen.t_stat = True, t_refit
-        chosen.evidence += (f"; confirmed by the joint refit: it removed "
-                            f"{100 * removed:.3g} % of the held-out SSE, consistent over "
-                            f"{n_blocks} held-out batches (t = {t_refit:.1f})")
-        if folds is not None:
+        if folds is None:
+            chosen.evidence += (f"; confirmed by the joint refit: it removed "
+                                f"{100 * removed:.3g} % of the held-out SSE, consistent over "
+                                f"{n_blocks} held-out batches (t = {t_refit:.1f})")
+        else:
             chosen.t_stat = folds.t
-            chosen.evidence += f", and {folds.words()}"
+            chosen.evidence += (f"; confirmed by the joint refit: it removed "
+                                f"{100 * removed:.3g} % of the held-out SSE (t = "
+                                f"{t_refit:.1f} over {n_blocks} batches: few episodes), and "
+                                f"{folds.words()}")
         return trial, trial_resid
     why = (f"the joint refit removed {100 * removed:.3g} % of the held-out SSE (needs "
            f"{50 * ctx.min_score:.3g} %)" if not enough else
