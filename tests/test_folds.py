@@ -52,3 +52,19 @@ def test_an_offset_on_clean_data_is_not_convincing():
                          trial_resid)
     assert not fitting._evidence.convincing(folds.removed, folds.t, ctx.min_t), folds
     assert not folds.replicated() and not folds.holds(ctx.min_t, ctx.min_score), folds
+
+
+def test_replication_rule():
+    """`FoldEvidence.holds`: the all-fold rule, or a third of the SSE removed where the effect
+    acts in each of the three folds with at least `min_score` of all of it (the two-state
+    drag after a drift: 31 %, t 1.8; 84.5, 51.5 and 62 % where it acts)."""
+    from fitting._folds import FoldEvidence
+
+    drag = FoldEvidence(removed=0.313, t=1.8, batches=54, shares=(0.845, 0.515, 0.62))
+    assert drag.replicated() and drag.holds(3.0, 0.05)
+    one_fold_short = FoldEvidence(removed=0.313, t=1.8, batches=54, shares=(0.845, 0.2, 0.62))
+    assert not one_fold_short.holds(3.0, 0.05)
+    loses_elsewhere = FoldEvidence(removed=0.01, t=0.3, batches=54, shares=(0.8, 0.7, 0.6))
+    assert loses_elsewhere.replicated() and not loses_elsewhere.holds(3.0, 0.05)
+    consistent = FoldEvidence(removed=0.2, t=3.5, batches=60)
+    assert consistent.holds(3.0, 0.05) and not consistent.replicated()
