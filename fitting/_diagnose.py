@@ -81,7 +81,7 @@ import numpy as np
 from ._candidates import _code, Candidate
 from ._diagnose_context import _contained, _Context, _context, effect_names, Step
 from ._evidence import convincing, evidence, needs, STRONG_SHARE
-from ._folds import on_all_folds
+from ._folds import on_all_folds, on_folds
 from ._plausibility import plausibility
 from ._result import saved_model
 from ._screen import _base_jacobian, _joint_check, _pair_screen, _screen
@@ -187,6 +187,9 @@ class _State:
     #: Every refit tried (`_refit`): effects, held-out RMSE before and after, share of the
     #: held-out SSE removed, consistency, and whether it was added.
     trials: list[dict] = dataclasses.field(default_factory=list)
+    #: The current model's residual with each fold held out in turn (`fitting._folds`),
+    #: once a round needs it; None until then and after each step.
+    fold_resid: np.ndarray | None = None
 
 
 def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
@@ -287,8 +290,11 @@ def _folds(ctx: _Context, state: _State, trial, trial_resid, names_new, needed: 
         return None
     ctx.log("  a large gain on few held-out episodes: refitting with each of the other "
             "two folds held out ...")
+    if state.fold_resid is None:  # the same for every candidate of this round
+        state.fold_resid = on_folds(ctx, state.current, list(state.added), state.resid)
     folds = on_all_folds(ctx, state.current, list(state.added), trial.fit.model,
-                         [*state.added, *names_new], state.resid, trial_resid)
+                         [*state.added, *names_new], state.resid, trial_resid,
+                         ref=state.fold_resid)
     ctx.log(f"  {folds.words()}")
     state.trials[-1]["folds"] = {"removed": folds.removed, "batches": folds.batches,
                                  "t": folds.t if np.isfinite(folds.t) else None,
@@ -496,7 +502,7 @@ def diagnose(
         _mark_added(state.trials, {c.name for c in accepted})
         state.added.extend(c.name for c in accepted)
         state.current, state.resid = trial.fit.model, trial_resid
-        state.best_holdout = trial.rmse_holdout
+        state.best_holdout, state.fold_resid = trial.rmse_holdout, None
     baseline, steps = at_full_rate(full, ctx, baseline, steps)
     final = (steps[-1] if steps else baseline).fit.model
     warnings = {"baseline": plausibility(baseline.fit.model, full.t, full.x, full.v, full.F)}

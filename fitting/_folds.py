@@ -37,8 +37,10 @@ those two folds are not quite as unseen as fold 2 (on the drag above, fold 0 gai
 than fold 2: 84.5 % against 62 %). A start that saw none of them (the starting model) would
 cost more steps; fold 2, the one split that is clean, must pass the size test first.
 
-It costs four refits, so the diagnosis asks for it only where the single split is
-inconclusive but the held-out gain large (at least `fitting._evidence.STRONG_SHARE`).
+It costs four refits (two for the model without the effect, `on_folds`, done once a round
+and shared by the round's candidates; two with it), so the diagnosis asks for it only where
+the single split is inconclusive but the held-out gain large (at least
+`fitting._evidence.STRONG_SHARE`).
 """
 
 import dataclasses
@@ -84,22 +86,31 @@ class FoldEvidence:
                 "folds")
 
 
-def on_all_folds(ctx: _Context, current, added_before, trial_model, added_after,
-                 resid, trial_resid) -> FoldEvidence:
-    """The evidence that `trial_model` (with the new effects) improves on `current` when
-    each of the three folds is held out in turn. `resid`, `trial_resid`: their residuals
-    from fits on the training set of fold 2 (`ctx.train`), as the diagnosis has them."""
+def on_folds(ctx: _Context, model, added, resid) -> np.ndarray:
+    """`model`'s held-out residual on every sample: `resid` (its fit on the training set of
+    fold 2, `ctx.train`, as the diagnosis has it) on fold 2, and on folds 0 and 1 the
+    residual of `model` refitted with that fold held out. The diagnosis computes it once
+    per round for the current model (`fitting._diagnose._folds`) and for each trial."""
     fold = ctx.block % 3
-    ref, new = np.array(resid, np.float64), np.array(trial_resid, np.float64)
+    out = np.array(resid, np.float64)
     for k in (0, 1):
         test = fold == k
-        train = ~test
-        for model, added, out in ((current, added_before, ref),
-                                  (trial_model, added_after, new)):
-            _, r = _step(model, added, ctx.t, ctx.x, ctx.v, ctx.F, train, test, ctx.masks,
-                         ctx.log, ctx.max_steps, ctx.fixed, restart=True, load=ctx.load,
-                         a=ctx.a)
-            out[test] = r[test]
+        _, r = _step(model, added, ctx.t, ctx.x, ctx.v, ctx.F, ~test, test, ctx.masks,
+                     ctx.log, ctx.max_steps, ctx.fixed, restart=True, load=ctx.load, a=ctx.a)
+        out[test] = r[test]
+    return out
+
+
+def on_all_folds(ctx: _Context, current, added_before, trial_model, added_after,
+                 resid, trial_resid, ref=None) -> FoldEvidence:
+    """The evidence that `trial_model` (with the new effects) improves on `current` when
+    each of the three folds is held out in turn. `resid`, `trial_resid`: their residuals
+    from fits on the training set of fold 2 (`ctx.train`), as the diagnosis has them;
+    `ref`: `current`'s residual on all folds (`on_folds`) when already computed."""
+    fold = ctx.block % 3
+    if ref is None:
+        ref = on_folds(ctx, current, added_before, resid)
+    new = on_folds(ctx, trial_model, added_after, trial_resid)
     everywhere = np.ones(ref.shape, bool)
     ev = evidence(ref, new, everywhere, ctx.v_arr)
     removed = 1.0 - float(np.sum(new**2)) / max(float(np.sum(ref**2)), 1e-300)

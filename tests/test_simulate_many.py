@@ -127,6 +127,13 @@ def test_load_and_acceleration_inputs_reach_every_item():
         np.testing.assert_allclose(many[j], one, rtol=0, atol=1e-9)
     plain = jaxfric.simulate(_item(batched, static, 0), t, x, v, load=load)
     assert np.max(np.abs(plain - many[0])) > 1e-3
+    # Gradients with respect to every parameter set stay finite through a standstill
+    # (v exactly 0) and the sine's reversals.
+    xs, vs = np.r_[np.zeros(20), x[:-20]], np.r_[np.zeros(20), v[:-20]]
+    grads = jax.grad(lambda p: jnp.sum(jaxfric.simulate_many(
+        eqx.combine(p, static), t, xs, vs, chunk=2, load=load, a=a)))(batched)
+    assert all(bool(jnp.all(jnp.isfinite(g))) for g in jax.tree.leaves(grads))
+    assert float(jnp.abs(grads.effects[0].mass).sum()) > 0  # the mass reads the given a
     # Motions (B, n), each with its own load and acceleration.
     T, X, V, A, L = (np.stack([u, u, u]) for u in (t, x, v, a, load))
     L = L * np.array([[0.5], [1.0], [2.0]])

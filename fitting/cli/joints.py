@@ -170,7 +170,6 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
 def _joint_deadband(args, name: str):
     """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
     a several-joint ``--params`` (or at the top of a one-model ``--params``), else 'auto'."""
-
     if args.deadband is None and args.params:
         try:
             spec = json.loads(Path(args.params).read_text())
@@ -204,7 +203,6 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
     velocity and acceleration from `identification_derivatives` as the joint's fit or
     diagnosis took them (its saved ``"derivatives"``, unless ``--derivatives`` says)."""
     import jaxfric
-
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
