@@ -288,6 +288,45 @@ def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
     return [fresh.get(key(r), r) for r in files]
 
 
+def _exactly(todo: list[dict], spec: str) -> list[dict]:
+    """The cases of `todo` named in `spec` (``TRUTH:HIDDEN,...``, see --files)."""
+    wanted = set()
+    for item in spec.split(","):
+        truth, sep, hidden = item.strip().partition(":")
+        if not sep or truth not in TRUTHS:
+            raise SystemExit(f"--files: {item!r} is not TRUTH:HIDDEN with TRUTH one of "
+                             f"{', '.join(TRUTHS)}")
+        names = () if hidden == "clean" else tuple(hidden.split("+"))
+        if any(n not in SINGLES for n in names):
+            raise SystemExit(f"--files: {hidden!r} is not 'clean' or effects of "
+                             f"{', '.join(SINGLES)} joined by '+'")
+        wanted.add((truth, names))
+    out = [c for c in todo if (c["truth"], tuple(c["hidden"])) in wanted]
+    missing = wanted - {(c["truth"], tuple(c["hidden"])) for c in out}
+    if missing:
+        raise SystemExit("--files: not among the bench's files (with these --truths, "
+                         f"--rates, --noises): {sorted(missing)}")
+    return out
+
+
+def _reruns(base: dict) -> list[dict]:
+    """The earlier re-runs recorded in `base` (one dict before they were a list)."""
+    rerun = base.get("rerun", [])
+    return [rerun] if isinstance(rerun, dict) else list(rerun)
+
+
+def _commit() -> str | None:
+    """The short commit of the checkout the bench runs from, if it is a git one."""
+    import subprocess
+
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
+                             capture_output=True, text=True, timeout=10)
+    except OSError:
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
 def _by_truth(files: list[dict]) -> dict:
     return {truth: summarise([r for r in files if r["truth"] == truth])
             for truth in dict.fromkeys(r["truth"] for r in files)}
@@ -326,6 +365,10 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=str(HERE / "diagnosis_bench.json"),
                     help="output JSON (default: %(default)s)")
     ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
+    ap.add_argument("--files", help="comma-separated files to run, exactly: TRUTH:HIDDEN, "
+                    "HIDDEN an effect, a pair joined by '+', or 'clean' (e.g. "
+                    "gms_power:clean,gms_power:asymmetry+position_dependence); with "
+                    "--rates, --noises, --start")
     ap.add_argument("--truths", help=f"comma-separated truths (default: {', '.join(TRUTHS)}; "
                     "--quick: the first)")
     ap.add_argument("--rates", help="comma-separated sampling intervals in s (default: "
@@ -357,6 +400,8 @@ def main(argv=None) -> int:
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
+    if args.files:
+        todo = _exactly(todo, args.files)
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()
@@ -374,8 +419,9 @@ def main(argv=None) -> int:
                "by_truth": _by_truth(files), "files": files}
         if base is not None:
             out["seconds"] = base["seconds"]
-            out["rerun"] = {"files": [[r["truth"], r["hidden"]] for r in rows],
-                            "seconds": time.perf_counter() - t0}
+            out["rerun"] = [*_reruns(base), {
+                "commit": _commit(), "files": [[r["truth"], r["hidden"]] for r in rows],
+                "seconds": time.perf_counter() - t0}]
         tmp = Path(args.json).with_suffix(".json.partial")
         tmp.write_text(json.dumps(out, indent=2) + "\n")
         tmp.replace(args.json)

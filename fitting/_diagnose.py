@@ -44,8 +44,8 @@ significant candidate is tried. When nothing is significant but the best score i
 ``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
 that candidate is tried too, and kept only if the refit's held-out improvement is
 consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is large (at
-least `fitting._evidence.STRONG_SHARE`) but not consistent on the one split, as for an
-effect that acts in a regime the motion visits a few times, is refitted with each of the
+least ``4*min_score``, `fitting._folds.needs_folds`) but not consistent on the one split, as
+for an effect that acts in a regime the motion visits a few times, is refitted with each of the
 other two folds of blocks held out in turn (`fitting._folds`); it is added when the
 evidence of all three folds passes the same rule, or when its gain replicates where its
 term is large, in each fold. A candidate tried and not added says why in its evidence.
@@ -81,7 +81,7 @@ import numpy as np
 from ._candidates import _code, Candidate
 from ._diagnose_context import _contained, _Context, _context, effect_names, Step
 from ._evidence import convincing, evidence, needs, STRONG_SHARE
-from ._folds import on_all_folds, on_folds
+from ._folds import needs_folds, on_all_folds, on_folds
 from ._plausibility import plausibility
 from ._result import saved_model
 from ._screen import _base_jacobian, _joint_check, _pair_screen, _screen
@@ -254,8 +254,8 @@ def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
     # consistent, at least large (a slow drift has too few batches for any t).
     held = enough and (convincing(removed, t_refit, ctx.min_t)
                        or (chosen.significant and removed >= STRONG_SHARE))
-    folds = _folds(ctx, state, trial, trial_resid, [chosen.name], enough and not held
-                   and removed >= STRONG_SHARE)
+    folds = _folds(ctx, state, trial, trial_resid, [chosen.name],
+                   enough and not held and needs_folds(removed, ctx.min_score))
     if held or (folds is not None and folds.holds(ctx.min_t, ctx.min_score)):
         if not chosen.significant:
             chosen.significant, chosen.t_stat = True, t_refit
@@ -402,7 +402,7 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
                 f"N), consistency where they act t = {out[3]:.1f}")
         held = out[2] and convincing(out[5], out[3], ctx.min_t)
         folds = _folds(ctx, state, out[0], out[1], names_pair,
-                       out[2] and not held and out[5] >= STRONG_SHARE)
+                       out[2] and not held and needs_folds(out[5], ctx.min_score))
         if held or (folds is not None and folds.holds(ctx.min_t, ctx.min_score)):
             if folds is not None:  # the evidence of all three folds
                 out = (*out[:3], folds.t, folds.batches, out[5])

@@ -78,12 +78,21 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     row = data["files"][1]
     assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]
     assert data["summary"]["singles_absorbed_by_base"] == []
-    # --update re-runs the selected files into the earlier run (here: the same two).
+    # --update re-runs the files selected (here exactly one, --files) into the earlier run;
+    # each re-run is listed, with the commit it ran at.
     again = tmp_path / "again.json"
-    _run("diagnosis_bench.py", "--quick", "--only", "offset", "--update", out, "--json", again)
+    _run("diagnosis_bench.py", "--quick", "--files", "gms_power:offset", "--update", out,
+         "--json", again)
     updated = json.loads(again.read_text())
-    assert updated["rerun"]["files"] == [["gms_power", []], ["gms_power", ["offset"]]]
+    assert [r["files"] for r in updated["rerun"]] == [[["gms_power", ["offset"]]]]
+    assert "commit" in updated["rerun"][0]
     assert [f["added"] for f in updated["files"]] == [f["added"] for f in data["files"]]
+    assert updated["files"][0] == data["files"][0]  # the clean file was not re-run
+    # A file the bench does not have is refused before anything runs.
+    bad = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "diagnosis_bench.py"),
+                          "--quick", "--files", "gms_power:offset+nope"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert bad.returncode != 0 and "--files" in bad.stderr
 
 
 def test_c_step_runs_and_writes_json(tmp_path):
