@@ -414,7 +414,7 @@ def main(argv=None) -> int:
         files = rows if base is None else _replaced(base["files"], rows)
         out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
                            "python": sys.version.split()[0]},
-               "quick": args.quick, "complete": complete,
+               "quick": args.quick if base is None else base["quick"], "complete": complete,
                "seconds": time.perf_counter() - t0, "summary": summarise(files),
                "by_truth": _by_truth(files), "files": files}
         if base is not None:
