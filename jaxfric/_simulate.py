@@ -226,8 +226,11 @@ def _checked_batch_input(u, t, name):
     if u.shape != t.shape:
         raise ValueError(f"t and {name} must have the same shape, got {t.shape} and "
                          f"{u.shape}")
-    if not isinstance(u, jax.core.Tracer) and not np.all(np.isfinite(np.asarray(u))):
-        raise ValueError(f"{name} has a non-finite value")
+    if not isinstance(u, jax.core.Tracer):
+        bad = ~np.isfinite(np.asarray(u))
+        if bad.any():
+            row, col = np.unravel_index(int(np.argmax(bad)), bad.shape)
+            raise ValueError(f"{name} has a non-finite value at [{row}, {col}]")
     return u.astype(t.dtype)
 
 
