@@ -134,9 +134,22 @@ def compare_joints(args, kinds, log, compare_measurement) -> int:
     return 0
 
 
-def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
-    """``{joint: (model, description)}``: from a several-joint fit (``"joints"``), one
-    model for all joints (any other ``--params``), or the paper's values."""
+def _params_spec(params) -> dict | None:
+    """The ``--params`` JSON as a dict, read once; None without one, or when it is not a
+    readable JSON object (`model_from_json` then names the problem)."""
+    if not params:
+        return None
+    try:
+        spec = json.loads(Path(params).read_text())
+    except (OSError, ValueError):
+        return None
+    return spec if isinstance(spec, dict) else None
+
+
+def _joint_models(args, kind: str, joints: dict, model_from_json, spec) -> dict:
+    """``{joint: (model, description)}``: from a several-joint fit (``"joints"`` in `spec`,
+    the ``--params`` JSON), one model for all joints (any other ``--params``), or the
+    paper's values."""
     import jaxfric
     from jaxfric import paper
 
@@ -144,11 +157,7 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
         model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
                  "tustin": paper.tustin}[kind]()
         return dict.fromkeys(joints, (model, f"{kind} with the paper's parameters"))
-    try:
-        spec = json.loads(Path(args.params).read_text())
-    except (OSError, ValueError):
-        spec = None  # model_from_json names the problem
-    if not (isinstance(spec, dict) and isinstance(spec.get("joints"), dict)):
+    if not (spec is not None and isinstance(spec.get("joints"), dict)):
         model = model_from_json(args.params, kind)
         return dict.fromkeys(joints, model)
     out = {}
@@ -167,31 +176,24 @@ def _joint_models(args, kind: str, joints: dict, model_from_json) -> dict:
     return out
 
 
-def _joint_deadband(args, name: str):
+def _joint_deadband(args, name: str, spec):
     """The deadband for joint `name`: ``--deadband``, else the one saved for that joint in
-    a several-joint ``--params`` (or at the top of a one-model ``--params``), else 'auto'."""
-    if args.deadband is None and args.params:
-        try:
-            spec = json.loads(Path(args.params).read_text())
-        except (OSError, ValueError):
-            spec = None
-        entry = spec.get("joints", {}).get(name) if isinstance(spec, dict) else None
-        if isinstance(entry, dict):  # a joint saved without one was played through none
-            saved = entry.get("deadband")
-            return None if saved is None else _deadband_option(saved, None)
-    return _deadband_option(args.deadband, args.params)
+    a several-joint ``--params`` (`spec`; or at the top of a one-model one), else 'auto'. A
+    model saved without one was played through none."""
+    if args.deadband is not None or spec is None:
+        return _deadband_option(args.deadband, None)
+    per_joint = spec.get("joints")
+    entry = per_joint.get(name) if isinstance(per_joint, dict) else None
+    saved = entry.get("deadband") if isinstance(entry, dict) else spec.get("deadband")
+    return None if saved is None else _deadband_option(saved, None)
 
 
-def _joint_derivatives(params, joints) -> dict:
-    """``{joint: "derivatives" entry}`` of the result JSON `params` (a several-joint result:
+def _joint_derivatives(spec, joints) -> dict:
+    """``{joint: "derivatives" entry}`` of the result JSON `spec` (a several-joint result:
     each joint's own; a one-axis result: its entry for every joint; none: empty)."""
-    if not params:
+    if spec is None:
         return {name: {} for name in joints}
-    try:
-        spec = json.loads(Path(params).read_text())
-    except (OSError, ValueError):
-        return {name: {} for name in joints}
-    per_joint = spec.get("joints") if isinstance(spec, dict) else None
+    per_joint = spec.get("joints")
     if isinstance(per_joint, dict):
         return {name: saved_derivatives(per_joint.get(name)) for name in joints}
     return dict.fromkeys(joints, saved_derivatives(spec))
@@ -206,14 +208,15 @@ def simulate_joints(args, kind: str, log, model_from_json) -> int:
 
     joints = load_joints_for_cli(args, log, require_force=False, check_sign=False,
                                  flip_force=False)
-    models = _joint_models(args, kind, joints, model_from_json)
-    saved = _joint_derivatives(args.params, joints)
+    spec = _params_spec(args.params)  # read once: model, deadband, derivatives
+    models = _joint_models(args, kind, joints, model_from_json, spec)
+    saved = _joint_derivatives(spec, joints)
     first = next(iter(joints.values()))
     cols = {f"t[{first.unit('t')}]": first.t}
     for name, m in joints.items():
         model, what = models[name]
         log(f"{name}: {what}")
-        m, _ = played_measurement(m, _joint_deadband(args, name), log)
+        m, _ = played_measurement(m, _joint_deadband(args, name, spec), log)
         # The velocity and acceleration the joint's fit or diagnosis used (its columns, or
         # the same zero-phase estimates), so that the force is its prediction.
         v, a, _ = identification_derivatives(m, derivatives_as_saved(args, saved[name]), log)
