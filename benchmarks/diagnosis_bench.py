@@ -278,6 +278,65 @@ def markdown_by_truth(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _counts(rows: list[dict]) -> dict:
+    """The targets' numerators and denominators (as `summarise`, in counts)."""
+    singles = [r for r in rows if len(r["hidden"]) == 1]
+    pairs = [r for r in rows if len(r["hidden"]) == 2]
+    left = [r for r in singles if not absorbed(r)]
+    gone = {(r["truth"], r["noise"], r["dt"], r["hidden"][0]) for r in singles if absorbed(r)}
+    findable = [r for r in pairs
+                if not any((r["truth"], r["noise"], r["dt"], h) in gone for h in r["hidden"])]
+    s = summarise(rows)
+    return {
+        "singles": (sum(r["first"] == r["hidden"][0] for r in singles), len(singles)),
+        "singles_left": (sum(r["first"] == r["hidden"][0] for r in left), len(left)),
+        "pairs": (sum(set(r["hidden"]) <= set(r["added"]) for r in pairs), len(pairs)),
+        "pairs_left": (sum(set(r["hidden"]) <= set(r["added"]) for r in findable),
+                       len(findable)),
+        "clean": s["effects_added_on_clean"], "half": s["found_with_half_excess_removed"],
+        "median": s["median_excess_removed_when_found"]}
+
+
+def markdown_targets(rows: list[dict]) -> str:
+    """The targets, per truth and over all, as Markdown for docs/diagnosis.md: counts, and
+    over all the share and whether it is met."""
+    truths = list(dict.fromkeys(r["truth"] for r in rows))
+    per = [_counts([r for r in rows if r["truth"] == t]) for t in truths]
+    every = _counts(rows)
+
+    def frac(key, c):
+        k, n = c[key]
+        return f"{k} of {n}"
+
+    def total(key, goal):
+        k, n = every[key]
+        share = k / max(n, 1)
+        return (f"{k} of {n} ({100 * share:.0f} %): "
+                + ("met" if share >= goal else "**missed**"))
+
+    def half(c):
+        if c["half"] is None:
+            return "none found"
+        return ("all" if c["half"] == 1 else f"{100 * c['half']:.0f} %") + (
+            f" (median {100 * c['median']:.0f} %)")
+
+    lines = ["| target | " + " | ".join(truths) + " | all |", "|---" * (len(truths) + 2) + "|"]
+    for label, key, goal in (
+            ("single hidden effect named first (>= 90 %)", "singles", 0.9),
+            ("the same, leaving out the absorbed", "singles_left", 0.9),
+            ("both effects of a pair found (>= 80 %)", "pairs", 0.8),
+            ("the same, leaving out pairs with an effect absorbed alone", "pairs_left", 0.8)):
+        lines.append(f"| {label} | " + " | ".join(frac(key, c) for c in per)
+                     + f" | {total(key, goal)} |")
+    lines.append("| effects added on the clean file (0) | " + " | ".join(
+        str(c["clean"]) for c in per) + f" | {every['clean']}: "
+        + ("met" if every["clean"] == 0 else "**missed**") + " |")
+    lines.append("| half the excess error removed when found | " + " | ".join(
+        half(c) for c in per) + f" | {half(every)}: "
+        + ("met" if every["half"] in (None, 1.0) else "**missed**") + " |")
+    return "\n".join(lines)
+
+
 def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
     """`files` with the rows of the same file (truth, hidden, noise, sampling) as in `new`
     replaced by those."""
@@ -345,6 +404,7 @@ def _print_all(out: dict) -> None:
     print("\n" + markdown(rows))
     if len(out["by_truth"]) > 1:
         print("\n" + markdown_by_truth(rows))
+    print("\n" + markdown_targets(rows))
 
 
 def _resummarise(path: Path) -> int:

@@ -74,6 +74,8 @@ def test_diagnosis_bench_runs_and_writes_json(tmp_path):
     assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
     assert data["complete"] and list(data["by_truth"]) == ["gms_power"]
     assert "confusion" in printed and data["summary"]["singles"] == 1
+    assert "| single hidden effect named first (>= 90 %) | 1 of 1 | 1 of 1 (100 %): met |" \
+        in printed, printed  # the targets' table for the docs
     # The clean twin (same motion and noise, no offset) fits better than the file with it.
     row = data["files"][1]
     assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]

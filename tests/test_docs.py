@@ -76,3 +76,16 @@ def test_the_closest_call_counts_quoted_come_from_their_script():
     assert "right, of 8 files: score 8, t 4, held-out error 6" in run.stdout, run.stdout
     doc = (ROOT / "docs" / "diagnosis.md").read_text()
     assert "eight files" in doc and "in all\neight" in doc
+
+
+def test_the_fold_check_counts_quoted_come_from_their_script():
+    """docs/diagnosis.md quotes `benchmarks/fold_checks.py` on the committed bench runs:
+    which refits went to the three folds, and what was added."""
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fold_checks.py")],
+                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert run.returncode == 0, run.stderr
+    assert ("34 refits went to the three folds: hidden: 18 added, 0 rejected; not hidden: 2 "
+            "added, 12 rejected; mixed: 1 added, 1 rejected") in run.stdout, run.stdout
+    doc = " ".join((ROOT / "docs" / "diagnosis.md").read_text().split())
+    assert ("34 refits went to the three folds: the 18 of hidden effects were all added; of "
+            "the 14 of effects not hidden, 12 were rejected and 2 added") in doc
