@@ -28,9 +28,6 @@ pytestmark = pytest.mark.slow
 KNOWN_FAILURES: dict[str, str] = {
     "quadratic_drag": "nothing is added: the base model's sigma2 and Stribeck curve absorb "
                       "the drag (held-out RMSE within 10 % of the clean twin's)",
-    "friction_lag": "nothing is added: ranked first (score about 0.12) but its held-out gain "
-                    "is not consistent (t about 1.8); the base model's lag state and "
-                    "viscous term take up most of it",
 }
 
 
@@ -75,8 +72,6 @@ def test_hidden_effect_is_named_first_and_the_error_falls(name, request):
 PAIRS = {("asymmetry", "position_dependence"): 11, ("inertia", "cogging"): 12,
          ("quadratic_drag", "drift"): 13}
 PAIR_FAILURES: dict[tuple[str, str], str] = {
-    ("asymmetry", "position_dependence"): "the asymmetry is found; the position dependence "
-    "left on its residual removes about 23 % of the held-out SSE in its refit, t about 0.8",
     ("quadratic_drag", "drift"): "the drift is found; the drag is absorbed by the base "
     "model's sigma2 and Stribeck curve (as alone)",
 }
