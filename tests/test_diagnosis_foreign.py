@@ -138,8 +138,6 @@ OTHER_TRUTHS = ("lugre", "two_state_power")
 OTHER_FAILURES: dict[tuple[str, str], str] = {
     ("lugre", "quadratic_drag"): "nothing is added: the base model absorbs the drag "
                                   "(held-out RMSE within 10 % of the clean twin's)",
-    ("lugre", "inertia"): "nothing is added: the mass error scores 15.4 % (t about 2.2), "
-                          "behind a Stribeck hump (17.7 %, t about 2.9), neither significant",
     ("lugre", "friction_lag"): "nothing is added: its refit removes 20 % of the held-out SSE "
                                "with t about 2.8 (needs 3)",
 }
@@ -154,8 +152,6 @@ def run_truth(truth: str, hidden: tuple[str, ...], seed: int):
 
 #: (truth, pair) -> what the diagnosis does instead (from the bench's last run).
 OTHER_PAIR_FAILURES: dict[tuple[str, tuple[str, str]], str] = {
-    ("lugre", ("inertia", "cogging")): "the cogging is found; the mass error is not (as "
-                                       "alone on this truth)",
     ("lugre", ("quadratic_drag", "drift")): "the drift is found; the drag is absorbed by "
                                             "the base model (as alone on this truth)",
 }
