@@ -157,10 +157,22 @@ def _null_summary(rows: list[dict]) -> dict:
     }
 
 
-def summarise(rows: list[dict]) -> dict:
-    clean = {(r["truth"], r["noise"], r["dt"]): r for r in rows if not r["hidden"]}
+def _groups(rows: list[dict]):
+    """``(singles, pairs, left, findable)``: the single-effect and pair files, the singles
+    not absorbed, and the pairs without an effect its base model absorbs alone (same truth,
+    noise and rate): those have only one effect to find."""
     singles = [r for r in rows if len(r["hidden"]) == 1]
     pairs = [r for r in rows if len(r["hidden"]) == 2]
+    left = [r for r in singles if not absorbed(r)]
+    gone = {(r["truth"], r["noise"], r["dt"], r["hidden"][0]) for r in singles if absorbed(r)}
+    findable = [r for r in pairs
+                if not any((r["truth"], r["noise"], r["dt"], h) in gone for h in r["hidden"])]
+    return singles, pairs, left, findable
+
+
+def summarise(rows: list[dict]) -> dict:
+    clean = {(r["truth"], r["noise"], r["dt"]): r for r in rows if not r["hidden"]}
+    singles, pairs, left, findable = _groups(rows)
     right = [r for r in singles if r["first"] == r["hidden"][0]]
     both = [r for r in pairs if set(r["hidden"]) <= set(r["added"])]
     removed = []
@@ -169,12 +181,6 @@ def summarise(rows: list[dict]) -> dict:
         excess = r["rmse_holdout_before"] - r["rmse_holdout_clean"]
         if excess > 0:
             removed.append((r["rmse_holdout_before"] - r["rmse_holdout_after"]) / excess)
-    left = [r for r in singles if not absorbed(r)]
-    # A pair with an effect its base model absorbs alone (same truth, noise and rate) has
-    # only one effect to find.
-    gone = {(r["truth"], r["noise"], r["dt"], r["hidden"][0]) for r in singles if absorbed(r)}
-    findable = [r for r in pairs
-                if not any((r["truth"], r["noise"], r["dt"], h) in gone for h in r["hidden"])]
     return {
         "single_right_first": len(right) / max(len(singles), 1),
         "singles": len(singles),
@@ -280,12 +286,7 @@ def markdown_by_truth(rows: list[dict]) -> str:
 
 def _counts(rows: list[dict]) -> dict:
     """The targets' numerators and denominators (as `summarise`, in counts)."""
-    singles = [r for r in rows if len(r["hidden"]) == 1]
-    pairs = [r for r in rows if len(r["hidden"]) == 2]
-    left = [r for r in singles if not absorbed(r)]
-    gone = {(r["truth"], r["noise"], r["dt"], r["hidden"][0]) for r in singles if absorbed(r)}
-    findable = [r for r in pairs
-                if not any((r["truth"], r["noise"], r["dt"], h) in gone for h in r["hidden"])]
+    singles, pairs, left, findable = _groups(rows)
     s = summarise(rows)
     return {
         "singles": (sum(r["first"] == r["hidden"][0] for r in singles), len(singles)),
@@ -383,7 +384,7 @@ def _commit() -> str | None:
                              capture_output=True, text=True, timeout=10)
     except OSError:
         return None
-    return out.stdout.strip() or None if out.returncode == 0 else None
+    return (out.stdout.strip() or None) if out.returncode == 0 else None
 
 
 def _by_truth(files: list[dict]) -> dict:
