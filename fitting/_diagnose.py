@@ -307,8 +307,9 @@ def _folds(ctx: _Context, state: _State, trial, trial_resid, names_new, needed: 
 
 
 def _closest_call(ctx: _Context, held):
-    """Of candidates of nearly equal score whose refits all held up, the one to add, and
-    why in words. The lower held-out error decides when it is significantly lower where
+    """Of candidates whose refits all held up (of nearly equal score, `_try_singles`, or
+    leading candidates refitted when nothing else held up, `_try_leaders`), the one to add,
+    and why in words. The lower held-out error decides when it is significantly lower where
     the two refits differ (`fitting._evidence`, ``t`` at least `min_t`); otherwise the
     data cannot tell them apart, and the screen's ranking stands: the higher score (the
     share of the held-out residual the effect explains beyond the model's own parameters).

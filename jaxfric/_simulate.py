@@ -47,11 +47,15 @@ def _strong(leaf):
 
 
 def _check_values(name: str, a) -> None:
+    """Raise when concrete `a` has a non-finite value, naming where: ``at index i`` for one
+    motion, ``at [row, col]`` for motions ``(B, n)``."""
     if isinstance(a, jax.core.Tracer):
         return
     bad = ~np.isfinite(np.asarray(a))
     if bad.any():
-        raise ValueError(f"{name} has a non-finite value at index {int(np.argmax(bad))}")
+        at = np.unravel_index(int(np.argmax(bad)), bad.shape)
+        where = f"index {at[0]}" if bad.ndim == 1 else f"[{', '.join(map(str, at))}]"
+        raise ValueError(f"{name} has a non-finite value at {where}")
 
 
 @eqx.filter_jit
@@ -226,11 +230,7 @@ def _checked_batch_input(u, t, name):
     if u.shape != t.shape:
         raise ValueError(f"t and {name} must have the same shape, got {t.shape} and "
                          f"{u.shape}")
-    if not isinstance(u, jax.core.Tracer):
-        bad = ~np.isfinite(np.asarray(u))
-        if bad.any():
-            row, col = np.unravel_index(int(np.argmax(bad)), bad.shape)
-            raise ValueError(f"{name} has a non-finite value at [{row}, {col}]")
+    _check_values(name, u)
     return u.astype(t.dtype)
 
 
@@ -263,11 +263,7 @@ def _checked_motions(t, x, v):
     arrays = [a if jnp.issubdtype(a.dtype, jnp.floating) else a.astype(jnp.asarray(0.0).dtype)
               for a in (t, x, v) if a is not None]
     for name, a in zip(("t", "x", "v"), arrays):
-        if not isinstance(a, jax.core.Tracer):
-            bad = ~np.isfinite(np.asarray(a))
-            if bad.any():
-                row, col = np.unravel_index(int(np.argmax(bad)), bad.shape)
-                raise ValueError(f"{name} has a non-finite value at [{row}, {col}]")
+        _check_values(name, a)
     arrays = _common_float(*arrays)
     if not isinstance(arrays[0], jax.core.Tracer):
         bad = np.diff(np.asarray(arrays[0]), axis=1) <= 0

@@ -96,6 +96,10 @@ def test_bad_inputs_raise():
         jaxfric.simulate_many(eqx.combine(batched, static), np.stack([t, t]), np.stack([x, x]))
     with pytest.raises(ValueError, match="strictly increasing"):
         jaxfric.simulate_many(model, np.stack([t, t[::-1]]), np.stack([x, x]), model_axis=None)
+    X = np.stack([x, x])
+    X[1, 3] = np.inf
+    with pytest.raises(ValueError, match=r"x has a non-finite value at \[1, 3\]"):
+        jaxfric.simulate_many(model, np.stack([t, t]), X, model_axis=None)
 
 
 def test_reversal_bound_of_rows_is_the_largest():
