@@ -554,9 +554,11 @@ def diagnose(
         state.best_holdout, state.fold_resid = trial.rmse_holdout, None
     baseline, steps = at_full_rate(full, ctx, baseline, steps)
     final = (steps[-1] if steps else baseline).fit.model
-    warnings = {"baseline": plausibility(baseline.fit.model, full.t, full.x, full.v, full.F)}
+    warnings = {"baseline": plausibility(baseline.fit.model, full.t, full.x, full.v, full.F,
+                                         a=full.a, load=full.load)}
     if steps:
-        warnings["final"] = plausibility(final, full.t, full.x, full.v, full.F)
+        warnings["final"] = plausibility(final, full.t, full.x, full.v, full.F, a=full.a,
+                                         load=full.load)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings, holdout=full.test,
                      model=final, model_name=model_name or type(ctx.model).__name__,
                      velocity=ctx.velocity, warnings={k: w for k, w in warnings.items() if w},

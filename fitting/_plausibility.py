@@ -60,7 +60,17 @@ def _sliding_speeds(v):
     return float(lo), float(mid), float(hi)
 
 
-def steady_state(model, speeds, duration: float, samples: int = 2000,
+#: Samples of every simulated motion here: one length, one compiled simulation.
+SAMPLES = 4000
+
+
+def _simulate(model, t, x, v):
+    """`jaxfric.simulate` at zero transmitted load (`jaxfric.effects.LoadFriction` adds
+    nothing), as every motion here is simulated (one compiled program per model)."""
+    return np.asarray(jaxfric.simulate(model, t, x, v, load=np.zeros_like(t)))
+
+
+def steady_state(model, speeds, duration: float, samples: int = SAMPLES,
                  at: float = 0.0) -> np.ndarray:
     """The force (N) `model` reaches after sliding at each of `speeds` (m/s, signed) for
     `duration` seconds from rest, arriving at position `at` (m; where position-dependent
@@ -71,19 +81,18 @@ def steady_state(model, speeds, duration: float, samples: int = 2000,
     for s in np.asarray(speeds, float):
         x = at + s * (t - duration)
         v = np.full_like(t, s)
-        out.append(float(np.asarray(jaxfric.simulate(model, t, x, v,
-                                                     load=np.zeros_like(t)))[-1]))
+        out.append(float(_simulate(model, t, x, v)[-1]))
     return np.asarray(out)
 
 
-def _presliding_range(model, speed, stroke, samples=4000):
+def _presliding_range(model, speed, stroke, samples=SAMPLES):
     """Travel (m) after a reversal until the force has covered 90 % of its swing."""
     n1 = samples // 2
     t = np.linspace(0.0, 4 * stroke / speed, samples)
     dt = t[1]
     v = np.r_[np.full(n1, -speed), np.full(samples - n1, speed)]
     x = np.cumsum(np.r_[0.0, v[1:] * dt])
-    f = np.asarray(jaxfric.simulate(model, t, x, v))
+    f = _simulate(model, t, x, v)
     after = f[n1 - 1:]
     swing = after[-1] - after[0]
     if swing == 0:
@@ -98,11 +107,10 @@ def _lag_time(model, v_lo, v_hi, settle):
     `v_hi` (held `settle` s each); the change is the one between the model's steady states
     (reached after 10^4 `settle`), so a lag too slow to move within the window is measured
     as at least the window."""
-    samples = 4000
-    t = np.linspace(0.0, 2 * settle, samples)
+    t = np.linspace(0.0, 2 * settle, SAMPLES)
     v = np.where(t < settle, v_lo, v_hi)
     x = np.cumsum(np.r_[0.0, v[1:] * t[1]])
-    f = np.asarray(jaxfric.simulate(model, t, x, v))
+    f = _simulate(model, t, x, v)
     k = int(np.searchsorted(t, settle))
     lo, hi = steady_state(model, [v_lo, v_hi], 1e4 * settle)
     change = hi - f[k - 1]
@@ -112,14 +120,15 @@ def _lag_time(model, v_lo, v_hi, settle):
     return float(t[k - 1 + reached[0]] - t[k - 1]) if reached.size else float(t[-1] - t[k - 1])
 
 
-def plausibility(model, t, x, v, F) -> list[str]:
+def plausibility(model, t, x, v, F, *, a=None, load=None) -> list[str]:
     """Plain-words warnings about `model` fitted to ``(t, x, v, F)`` (SI) with its
     prediction: see the module docstring. Empty when nothing is implausible. The
     checks are on the base model (its added effects removed): its presliding and lag are
-    what could take up effects."""
-    t, x, v, F = (np.asarray(a, np.float64) for a in (t, x, v, F))
+    what could take up effects. `a` and `load` change nothing for the base model, but
+    given as the fit had them, its compiled simulation is reused."""
+    t, x, v, F = (np.asarray(arr, np.float64) for arr in (t, x, v, F))
     model = model.without_effects()
-    pred = np.asarray(jaxfric.simulate(model, t, x, v))
+    pred = np.asarray(jaxfric.simulate(model, t, x, v, a=a, load=load))
     stroke, stroke_time = _strokes(t, x, v)
     lo, mid, hi = _sliding_speeds(v)
     level = float(np.median(np.abs(F[np.abs(v) >= mid]))) if np.any(np.abs(v) >= mid) else 1.0

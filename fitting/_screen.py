@@ -48,7 +48,9 @@ def _base_signals(model, t, x, v, load=None, a=None):
     its added effects; `load` (N) for the load-dependent effects, `a` (m/s^2; None: the
     backward difference of `v`) for `jaxfric.effects.Inertia`."""
     base_model = model.without_effects()
-    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v))
+    # `load` and `a` change nothing for a model without effects, but given as every fit
+    # gives them (`fitting._fit._as_simulated`) the compiled simulation is reused.
+    base_force = np.asarray(jaxfric.simulate(base_model, t, x, v, load=load, a=a))
     return _signals(t, x, v, base_force,
                     np.asarray(fx.static_force(base_model, jnp.asarray(v), base_force)), load,
                     a)

@@ -39,6 +39,10 @@ def default_cache_dir() -> Path:
     return Path(base) / "jaxfric" / "xla"
 
 
+#: Programs that took at least this long to compile (s) are kept on disk (JAX: 1 s).
+MIN_COMPILE_S = 0.2
+
+
 def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
     """Keep compiled programs on disk, so that a new process skips their compilation.
 
@@ -46,7 +50,10 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
     cache, a later process that runs the same fit (same model, free parameters, data
     shape and solver settings) loads it instead. This is JAX's persistent compilation
     cache (``jax_compilation_cache_dir``); JAX keys it by the program, the JAX version
-    and the device, and by default stores only programs that took at least a second.
+    and the device. JAX stores by default only programs that took at least a second to
+    compile; here those of at least `MIN_COMPILE_S` are kept: a simulation or a fit's last
+    evaluation compiles in 0.5-1 s, and a diagnosis compiles a dozen of them
+    (`benchmarks/diagnose_speed.py`).
 
     `path`: the folder (created if missing). Without one: the environment variable
     ``JAXFRIC_CACHE_DIR`` if set (empty or ``0`` disables the cache), else
@@ -75,4 +82,5 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
                       stacklevel=2)
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_S)
     return path

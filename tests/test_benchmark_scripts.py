@@ -170,9 +170,31 @@ def test_interrupt_latency_runs_and_writes_json(tmp_path):
 
 def test_diagnose_speed_runs_and_writes_json(tmp_path):
     out = tmp_path / "speed.json"
-    printed = _run("diagnose_speed.py", "--sizes", "1500", "--json", out)
-    rows = json.loads(out.read_text())["rows"]
-    assert [r["cache"] for r in rows] == ["empty", "filled"]
-    assert all(abs(r["samples"] - 1500) <= 15 and r["wall_s"] > 0 for r in rows)
+    printed = _run("diagnose_speed.py", "--sizes", "1500", "--repeats", "1", "--json", out)
+    data = json.loads(out.read_text())
+    rows = data["rows"]
+    assert [r["cache"] for r in rows] == ["empty", "filled"] and len(data["runs"]) == 2
+    assert all(abs(r["samples"] - 1500) <= 15 and r["wall_s"] > 0 and r["runs"] == 1
+               for r in rows)
     assert all(0 < r["diagnosis_s"] <= r["wall_s"] for r in rows)
     assert "wall [s]" in printed
+
+
+def test_diagnose_speed_medians():
+    """The table's row per size and cache state is the median of its runs, and runs that
+    added different effects are an error, not a median."""
+    from benchmarks.diagnose_speed import _medians
+
+    def run(cache, wall, added=("cogging",)):
+        return {"samples": 100, "cache": cache, "wall_s": wall, "diagnosis_s": wall - 1,
+                "added": list(added)}
+
+    runs = [run("empty", 9.0), run("filled", 4.0), run("empty", 7.0), run("filled", 5.0),
+            run("empty", 30.0), run("filled", 3.0)]
+    empty, filled = _medians(runs)
+    assert (empty["cache"], empty["runs"], empty["wall_s"], empty["diagnosis_s"]) == (
+        "empty", 3, 9.0, 8.0)
+    assert (empty["wall_min_s"], empty["wall_max_s"]) == (7.0, 30.0)
+    assert (filled["wall_s"], filled["added"]) == (4.0, ["cogging"])
+    with pytest.raises(RuntimeError, match="different effects"):
+        _medians([run("empty", 1.0), run("empty", 2.0, ())])
