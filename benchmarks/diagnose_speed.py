@@ -9,8 +9,10 @@ compilation cache (``JAXFRIC_CACHE_DIR`` set to a new folder: what a first run o
 machine costs, compilation included), then with the cache that run filled (what the next
 diagnosis of a file of the same length costs). The time is the whole command's, start-up,
 reading, the fits, the screens and the JSON included; the diagnosis's own figure (from its
-last line) is given too. Each pair of runs is repeated `--repeats` times, each time with a
-new empty cache; the table gives the medians (the machine is noisy), the JSON every run.
+last line) is given too, and the CPU time the command used (user and system, all its
+threads: divided by the wall time, the cores it kept busy). Each pair of runs is repeated
+`--repeats` times, each time with a new empty cache; the table gives the medians (the
+machine is noisy), the JSON every run.
 
     python benchmarks/diagnose_speed.py [--sizes 1e4,1e5] [--repeats 3] [--json OUT.json]
 
@@ -22,6 +24,7 @@ import json
 import os
 import platform
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -49,15 +52,18 @@ def _file(folder: Path, n: int) -> Path:
 
 def _run(path: Path, cache: Path, out: Path) -> dict:
     env = {**os.environ, "JAXFRIC_CACHE_DIR": str(cache)}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "fitting.cli", "diagnose", str(path), "--json",
                         str(out)], capture_output=True, text=True, env=env, timeout=3600)
     wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if r.returncode != 0:
         raise RuntimeError(f"diagnose failed on {path}:\n{r.stderr}")
     inner = re.findall(r"^\((\d+(?:\.\d+)?) s\)$", r.stdout, flags=re.M)
     added = json.loads(out.read_text())["after"]["added"]
-    return {"wall_s": wall, "diagnosis_s": float(inner[-1]) if inner else None,
+    return {"wall_s": wall, "cpu_s": cpu, "diagnosis_s": float(inner[-1]) if inner else None,
             "added": added}
 
 
@@ -76,6 +82,7 @@ def _medians(runs: list[dict]) -> list[dict]:
                      "wall_s": float(np.median(walls)), "wall_min_s": min(walls),
                      "wall_max_s": max(walls),
                      "diagnosis_s": float(np.median(inner)) if inner else None,
+                     "cpu_s": float(np.median([r["cpu_s"] for r in group])),
                      "added": group[0]["added"]})
     return rows
 
@@ -104,11 +111,12 @@ def main(argv=None) -> int:
                     print(f"  {r['wall_s']:.1f} s", flush=True)
     rows = _medians(runs)
     print(f"\n{'samples':>8} {'cache':>7} {'runs':>5} {'wall [s]':>9} {'min..max':>13} "
-          f"{'diagnosis [s]':>14}  added")
+          f"{'diagnosis [s]':>14} {'CPU [s]':>8} {'cores':>6}  added")
     for r in rows:
         print(f"{r['samples']:>8} {r['cache']:>7} {r['runs']:>5} {r['wall_s']:>9.1f} "
               f"{r['wall_min_s']:>6.1f}..{r['wall_max_s']:<6.1f}"
               f"{r['diagnosis_s'] if r['diagnosis_s'] is not None else float('nan'):>14.1f}"
+              f"{r['cpu_s']:>9.1f} {r['cpu_s'] / r['wall_s']:>6.2f}"
               f"  {' + '.join(r['added']) or '-'}")
     big = [r for r in rows if abs(r["samples"] - 1e5) <= 5e3]
     if big:

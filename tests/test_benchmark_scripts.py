@@ -176,8 +176,9 @@ def test_diagnose_speed_runs_and_writes_json(tmp_path):
     assert [r["cache"] for r in rows] == ["empty", "filled"] and len(data["runs"]) == 2
     assert all(abs(r["samples"] - 1500) <= 15 and r["wall_s"] > 0 and r["runs"] == 1
                for r in rows)
-    assert all(0 < r["diagnosis_s"] <= r["wall_s"] for r in rows)
-    assert "wall [s]" in printed
+    assert all(0 < r["diagnosis_s"] <= r["wall_s"] and r["cpu_s"] > 0.5 * r["diagnosis_s"]
+               for r in rows)
+    assert "wall [s]" in printed and "cores" in printed
 
 
 def test_diagnose_speed_medians():
@@ -187,7 +188,7 @@ def test_diagnose_speed_medians():
 
     def run(cache, wall, added=("cogging",)):
         return {"samples": 100, "cache": cache, "wall_s": wall, "diagnosis_s": wall - 1,
-                "added": list(added)}
+                "cpu_s": 1.5 * wall, "added": list(added)}
 
     runs = [run("empty", 9.0), run("filled", 4.0), run("empty", 7.0), run("filled", 5.0),
             run("empty", 30.0), run("filled", 3.0)]
@@ -195,6 +196,6 @@ def test_diagnose_speed_medians():
     assert (empty["cache"], empty["runs"], empty["wall_s"], empty["diagnosis_s"]) == (
         "empty", 3, 9.0, 8.0)
     assert (empty["wall_min_s"], empty["wall_max_s"]) == (7.0, 30.0)
-    assert (filled["wall_s"], filled["added"]) == (4.0, ["cogging"])
+    assert (filled["wall_s"], filled["added"], filled["cpu_s"]) == (4.0, ["cogging"], 6.0)
     with pytest.raises(RuntimeError, match="different effects"):
         _medians([run("empty", 1.0), run("empty", 2.0, ())])
