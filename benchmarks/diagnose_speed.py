@@ -68,8 +68,9 @@ def _run(path: Path, cache: Path, out: Path) -> dict:
 
 
 def _medians(runs: list[dict]) -> list[dict]:
-    """One row per size and cache state: the median wall and diagnosis times of its runs,
-    the fastest and slowest wall time, and the effects added (every run must agree)."""
+    """One row per size and cache state: the median wall, diagnosis and CPU times of its
+    runs, the fastest and slowest wall time, and the effects added (every run must
+    agree)."""
     rows = []
     for key in dict.fromkeys((r["samples"], r["cache"]) for r in runs):
         group = [r for r in runs if (r["samples"], r["cache"]) == key]
