@@ -114,7 +114,9 @@ class Diagnosis:
     deadband: float | None = None
     #: Every joint refit tried, in order: ``{"round", "effects", "rmse_holdout_before",
     #: "rmse_holdout_after", "removed" (share of the held-out SSE), "t", "batches",
-    #: "added"}`` (``t`` None when infinite).
+    #: "added", "tried_as" (why: `TRIED_AS`), "start" (the refit kept: from the "fitted
+    #: model" or the "starting model" with the effects)}`` (``t`` None when infinite;
+    #: ``"folds"`` when all three folds were asked, `fitting._folds`).
     trials: list[dict] = dataclasses.field(default_factory=list)
     #: For a long record, how the effects were searched on fewer samples
     #: (`fitting._search_copy`); empty when every sample was used throughout.
@@ -177,6 +179,11 @@ class Diagnosis:
 #: Most pairs of effects tried together when no single effect holds up (see `diagnose`).
 _PAIRS = 2
 
+#: Why a refit was tried, as its trial record says (``"tried_as"``): a candidate
+#: significant on the screen, the largest score although not consistent
+#: (`_try_singles`), a pair (`_try_pairs`), a leading candidate (`_try_leaders`).
+TRIED_AS = ("significant", "largest score", "pair", "leading")
+
 
 @dataclasses.dataclass
 class _State:
@@ -216,10 +223,11 @@ def _rank(ctx: _Context, state: _State, names, J) -> list[Candidate]:
     return ranking
 
 
-def _refit(ctx: _Context, state: _State, new_effects, names_new):
+def _refit(ctx: _Context, state: _State, new_effects, names_new, why: str):
     """Add `new_effects`, refit (from the fitted model and from the starting model with
     the effects; the better training fit is kept). Returns the step, its residual, whether
-    it removed enough held-out SSE, and its consistency (t, batches)."""
+    it removed enough held-out SSE, and its consistency (t, batches). The trial's record
+    says `why` it was tried (`TRIED_AS`) and which start was kept."""
     trial, trial_resid = ctx.step(state.current + new_effects, [*state.added, *names_new],
                                   restart=True)
     # The fitted model can sit where it compensated for the missing effect (a distorted
@@ -229,8 +237,9 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
     plain = ctx.model.without_effects()
     fresh, fresh_resid = ctx.step(plain + (*effects, *new_effects),
                                   [*state.added, *names_new], restart=True)
+    start = "fitted model"
     if float(fresh.fit.rmse) < float(trial.fit.rmse):
-        trial, trial_resid = fresh, fresh_resid
+        trial, trial_resid, start = fresh, fresh_resid, "starting model"
     # The refit must remove at least half the screening threshold of held-out SSE, and an
     # effect not yet shown consistent must now be so where it acts.
     enough = trial.rmse_holdout**2 < (1.0 - 0.5 * ctx.min_score) * state.best_holdout**2
@@ -240,18 +249,19 @@ def _refit(ctx: _Context, state: _State, new_effects, names_new):
                          "rmse_holdout_before": state.best_holdout,
                          "rmse_holdout_after": trial.rmse_holdout, "removed": removed,
                          "t": ev.t if np.isfinite(ev.t) else None,
-                         "batches": ev.batches, "added": False})
+                         "batches": ev.batches, "added": False, "tried_as": why,
+                         "start": start})
     return trial, trial_resid, enough, ev.t, ev.batches, removed
 
 
-def _holds_up(ctx: _Context, state: _State, chosen: Candidate):
+def _holds_up(ctx: _Context, state: _State, chosen: Candidate, why: str = "significant"):
     """Add `chosen` alone and refit: ``(step, residual)`` when the refit holds up (removes
     enough held-out SSE, and its gain is convincing where it acts, `convincing`, or, for a
     candidate significant on the screen, removes at least `STRONG_SHARE`), else ``None``
-    with the reason in its evidence."""
+    with the reason in its evidence. `why`: see `TRIED_AS`."""
     ctx.log(f"adding {chosen.name} and refitting ...")
     trial, trial_resid, enough, t_refit, n_blocks, removed = _refit(
-        ctx, state, (chosen.effect,), [chosen.name])
+        ctx, state, (chosen.effect,), [chosen.name], why)
     # The refit is the model itself: its held-out gain must be convincing (a linearised
     # screen can pass on the model's mismatch alone), or, for a candidate whose screen was
     # consistent, at least large (a slow drift has too few batches for any t).
@@ -343,7 +353,7 @@ def _try_singles(ctx: _Context, state: _State, ranking):
         # The largest score, but not consistent: often a second missing effect
         # confounding the linear screen. Try it first; the refit must confirm it where it
         # acts.
-        out = _holds_up(ctx, state, ranking[0])
+        out = _holds_up(ctx, state, ranking[0], "largest score")
         if out is not None:
             return [ranking[0]], *out
     if len(close) > 1:
@@ -393,7 +403,7 @@ def _try_leaders(ctx: _Context, state: _State, ranking):
     held = []
     for c in leaders:
         c.evidence += "; refitted as a leading candidate (the screen found nothing that held up)"
-        out = _holds_up(ctx, state, c)
+        out = _holds_up(ctx, state, c, "leading")
         if out is not None:
             held.append((c, out))
     if not held:
@@ -444,7 +454,7 @@ def _try_pairs(ctx: _Context, state: _State, ranking, J):
         names_pair = [c.name for c in pair.candidates]
         ctx.log(f"adding {' and '.join(names_pair)} together (they explain "
                 f"{100 * pair.score:.3g} % of the held-out residual jointly) and refitting ...")
-        out = _refit(ctx, state, pair.effects, names_pair)
+        out = _refit(ctx, state, pair.effects, names_pair, "pair")
         ctx.log(f"  held-out RMSE {out[0].rmse_holdout:.4g} N (was {state.best_holdout:.4g} "
                 f"N), consistency where they act t = {out[3]:.1f}")
         held = out[2] and convincing(out[5], out[3], ctx.min_t)

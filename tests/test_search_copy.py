@@ -73,6 +73,10 @@ def test_diagnosis_searches_the_copy_and_reports_on_every_sample(long_record):
     assert d.final.rmse <= 0.6 * d.baseline.rmse, d.summary()
     # The searched rankings are of the copy (a third of the samples), the trials too.
     assert d.trials and all(trial["effects"] for trial in d.trials)
+    # Each says why it was tried and which of its two refits was kept.
+    assert all(trial["tried_as"] in fitting._diagnose.TRIED_AS
+               and trial["start"] in ("fitted model", "starting model") for trial in d.trials)
+    assert [trial["tried_as"] for trial in d.trials if trial["added"]] == ["significant"]
 
 
 def test_searched_diagnosis_saves_the_model_of_its_full_rate_refit(long_record):
