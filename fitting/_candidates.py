@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import effects as fx
+from jaxfric._compile import jit
 
 
 def _signals(t, x, v, base, static, load=None, a=None):
@@ -96,7 +97,7 @@ _LINEAR = {
 }
 
 
-@eqx.filter_jit
+@jit
 def _term(effect, s):
     return effect.term(s)
 

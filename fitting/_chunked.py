@@ -45,6 +45,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array
 
+from jaxfric._compile import jit
+
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
 from ._result import status_name
@@ -138,7 +140,7 @@ def _scaled_residuals(z, args):
     return _residuals(y_c + inv_d * z, (problem, data, scale))
 
 
-@eqx.filter_jit
+@jit
 def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
            step_size) -> _ChunkOut:
     """At most ``min(budget, CHUNK)`` solver steps from `y_c` in the coordinates
@@ -158,8 +160,8 @@ def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
                      overflow=overflow, step_size=jnp.asarray(size, y_c.dtype))
 
 
-_evaluate = eqx.filter_jit(_evaluate_impl)
-_finish = eqx.filter_jit(_finish_impl)
+_evaluate = jit(_evaluate_impl)
+_finish = jit(_finish_impl)
 
 
 def _column_norms(jac) -> np.ndarray:

@@ -15,6 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
+from jaxfric._compile import jit
+
 from . import _params
 from ._data import check_dataset, Dataset, stack
 from ._fit import fit_batch
@@ -46,7 +48,7 @@ class MonteCarloResult(eqx.Module):
     converged_fraction: Array | None
 
 
-@eqx.filter_jit
+@jit
 def _predict(problem: _Problem, ys: Array, data: Dataset):
     def one(y):
         force, _ = _simulate_stack(problem.model(y), data, problem.max_reversals)

@@ -19,6 +19,7 @@ from jaxtyping import Array
 
 import jaxfric
 from jaxfric import NormalizedPaperShape
+from jaxfric._compile import jit
 from jaxfric._fields import parameter_info
 
 from ._transforms import AbstractTransform, Exp, Identity, ParamProps, Sigmoid, Simplex
@@ -191,7 +192,7 @@ def make_layout(model, props) -> Layout:
     )
 
 
-@eqx.filter_jit  # one compiled call instead of some ten small kernels, op by op
+@jit  # one compiled call instead of some ten small kernels, op by op
 def to_vector(model, layout: Layout) -> Array:
     """The unconstrained, scaled vector ``y`` of `model` (free and fixed leaves alike)."""
     params, _ = parameters(model)

@@ -6,13 +6,13 @@ tested for consistency where it acts (`fitting._evidence`).
 import dataclasses
 import itertools
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import jaxfric
 from jaxfric import effects as fx
+from jaxfric._compile import jit
 
 from . import _params
 from ._candidates import (
@@ -36,7 +36,7 @@ def _base_jacobian(model, t, x, v, fixed=(), load=None, a=None):
         return jaxfric.simulate(_params.from_natural_vector(p, model), t, x, v, load=load,
                                 a=a)
 
-    J = np.asarray(jax.jacfwd(eqx.filter_jit(force))(p0))
+    J = np.asarray(jax.jacfwd(jit(force))(p0))
     J = J[:, [n not in fixed for n in _params.natural_names(model)]]
     J = J[:, np.all(np.isfinite(J), axis=0)]
     norms = np.linalg.norm(J, axis=0)

@@ -13,6 +13,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array
 
+from jaxfric._compile import jit
+
 from . import _params
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
@@ -225,10 +227,10 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
     )
 
 
-_solve = eqx.filter_jit(_solve_impl)
+_solve = jit(_solve_impl)
 
 
-@eqx.filter_jit
+@jit
 def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
     # Over datasets only; returning arrays and the result code (never the whole optimistix
     # Solution, whose state holds jaxprs that cannot be batched: optimistix issues #38 and

@@ -30,10 +30,10 @@ experiment the force rises by twice the static level across the presliding regio
 paper's own numbers satisfy it to 2.4e-4 (F(X) = 52.212 N for 2*Fs = 52.2 N).
 """
 
-import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
+from ._compile import jit
 from ._fields import param
 from ._numerics import safe_div, safe_pow
 from ._shapes import AbstractShape, PaperShape
@@ -106,7 +106,7 @@ class NormalizedPaperShape(AbstractShape):
 
 
 # One compiled call: op by op, the first fit of a session compiled some ten small kernels.
-@eqx.filter_jit
+@jit
 def _from_paper(cls, shape, Fs):
     big_x = 2.0 * Fs * shape.l1
     b_lo = safe_pow(shape.beta, shape.alpha)

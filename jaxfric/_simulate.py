@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike
 
+from ._compile import jit
 from ._models._base import AbstractFrictionModel, SimResult
 from .motion import auto_deadband, make_motion, play, played_velocity, reversal_bound
 
@@ -58,7 +59,7 @@ def _check_values(name: str, a) -> None:
         raise ValueError(f"{name} has a non-finite value at {where}")
 
 
-@eqx.filter_jit
+@jit
 def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
          a=None) -> SimResult:
     return model._simulate(make_motion(t, x, v, max_reversals, load, a))
@@ -198,9 +199,10 @@ def simulate(
 
     **Returns:** the friction force, N, one per sample (or a `SimResult`).
 
-    Compiled with ``equinox.filter_jit``; works under ``jax.vmap`` (over trajectories or over
-    models) and ``jax.grad`` with respect to every parameter of `model`. Warns with
-    `StackOverflowWarning` when memory entries had to be dropped (only outside traced code).
+    Compiled with ``equinox.filter_jit`` and jaxfric's compiler options (`jaxfric._compile`);
+    works under ``jax.vmap`` (over trajectories or over models) and ``jax.grad`` with
+    respect to every parameter of `model`. Warns with `StackOverflowWarning` when memory
+    entries had to be dropped (only outside traced code).
     """
     t, x, v = _checked_motion(t, x, v)
     load = _checked_load(load, t)
@@ -234,7 +236,7 @@ def _checked_batch_input(u, t, name):
     return u.astype(t.dtype)
 
 
-@eqx.filter_jit
+@jit
 def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True, load=None,
               a=None) -> SimResult:
     """`_run` over a batch, `chunk` items at a time (``lax.map`` with ``batch_size``).

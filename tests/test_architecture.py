@@ -68,3 +68,17 @@ def test_the_console_command_lives_in_the_top_layer():
     run = subprocess.run([sys.executable, "-m", "fitting.cli", "--help"], cwd=ROOT,
                          capture_output=True, text=True)
     assert run.returncode == 0 and "usage: jaxfric" in run.stdout, run.stderr
+
+
+def test_every_program_is_compiled_with_jaxfrics_options():
+    # One place decides how programs are compiled (jaxfric._compile.jit); a bare jax.jit
+    # or equinox.filter_jit would compile without jaxfric's compiler options.
+    bare = {}
+    for p in _sources(*PACKAGES):
+        if p.name == "_compile.py":
+            continue
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.Attribute) and node.attr in ("jit", "filter_jit") and \
+                    isinstance(node.value, ast.Name) and node.value.id in ("jax", "eqx"):
+                bare.setdefault(str(p.relative_to(ROOT)), []).append(node.lineno)
+    assert not bare, f"compiled without jaxfric._compile.jit: {bare}"

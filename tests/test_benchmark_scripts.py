@@ -199,3 +199,15 @@ def test_diagnose_speed_medians():
     assert (filled["wall_s"], filled["added"], filled["cpu_s"]) == (4.0, ["cogging"], 6.0)
     with pytest.raises(RuntimeError, match="different effects"):
         _medians([run("empty", 1.0), run("empty", 2.0, ())])
+
+
+def test_compiler_options_compares_both_settings(tmp_path):
+    out = tmp_path / "options.json"
+    printed = _run("compiler_options.py", "--n", "2000", "--rounds", "1", "--json", out)
+    data = json.loads(out.read_text())
+    assert data["options"]["jaxfric"] and data["options"]["XLA defaults"] == {}
+    assert [r["case"] for r in data["rows"]][-1] == "fit two-state, 50 steps"
+    for r in data["rows"]:
+        assert r["jaxfric: compile_s"] > 0 and r["XLA defaults: compile_s"] > 0
+        assert r["max_dF_N"] < 1e-6  # only the generated code differs
+        assert r["case"] in printed
