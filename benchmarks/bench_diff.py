@@ -4,7 +4,9 @@ For every file in both runs (matched by truth, noise, sampling interval and hidd
 effects): the effects added and the first one named in each run, and the held-out error
 after the diagnosis (N). A file's outcome is the same when it added the same effects in
 the same order; its error moved when the two held-out errors differ by more than
-`--rtol` (relative). Files in one run only are listed apart.
+`--rtol` (relative). Files in one run only are listed apart. Also: how far the first
+screen's statistics moved (every candidate's score and ``t`` in both runs: the median and
+the largest change, and where the largest was).
 
     python benchmarks/bench_diff.py OLD.json NEW.json [--rtol 1e-3] [--json OUT]
 
@@ -15,6 +17,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 
 def key(row: dict) -> tuple:
@@ -49,6 +53,27 @@ def compare(old: list[dict], new: list[dict], rtol: float = 1e-3) -> dict:
     return out
 
 
+def screen_changes(old: list[dict], new: list[dict]) -> dict:
+    """For ``"score"`` and ``"t"``: the median and largest absolute change of the first
+    screen's value of a candidate between the runs (files in both, candidates in both
+    rankings, ``t`` where both are finite), and the ``[file, candidate]`` of the largest."""
+    a, b = {key(r): r for r in old}, {key(r): r for r in new}
+    out = {}
+    for stat in ("score", "t"):
+        changes = []
+        for k in a.keys() & b.keys():
+            ca = {c["name"]: c[stat] for c in a[k]["rankings"][0]}
+            cb = {c["name"]: c[stat] for c in b[k]["rankings"][0]}
+            changes += [(abs(ca[n] - cb[n]), _file(k), n) for n in ca.keys() & cb.keys()
+                        if ca[n] is not None and cb[n] is not None]
+        if changes:
+            big = max(changes, key=lambda c: c[0])
+            out[stat] = {"median": float(np.median([c[0] for c in changes])),
+                         "largest": big[0], "where": [big[1], big[2]],
+                         "count": len(changes)}
+    return out
+
+
 def _name(file: list) -> str:
     truth, noise, dt, hidden = file
     return f"{truth} {noise:g} N {dt * 1e3:g} ms {' + '.join(hidden) or 'clean'}"
@@ -77,8 +102,13 @@ def main(argv=None) -> int:
           f"{len(out['error_moved'])} with the held-out error moved by more than "
           f"{args.rtol:g}; {len(out['only_old'])} only in the old run, "
           f"{len(out['only_new'])} only in the new")
+    moved = screen_changes(old, new)
+    for stat, m in moved.items():
+        print(f"first screen's {stat} ({m['count']} candidates): median change "
+              f"{m['median']:.2g}, largest {m['largest']:.3g} ({_name(m['where'][0])}: "
+              f"{m['where'][1]})")
     if args.json:
-        Path(args.json).write_text(json.dumps(out, indent=1))
+        Path(args.json).write_text(json.dumps({**out, "screen": moved}, indent=1))
     return 0
 
 

@@ -2,12 +2,14 @@
 
 import json
 
-from benchmarks.bench_diff import compare, main
+from benchmarks.bench_diff import compare, main, screen_changes
 
 
-def _row(hidden, added, err, truth="lugre"):
+def _row(hidden, added, err, truth="lugre", offset_t=4.0):
     return {"truth": truth, "noise": 0.03, "dt": 0.01, "hidden": hidden, "added": added,
-            "first": added[0] if added else None, "rmse_holdout_after": err}
+            "first": added[0] if added else None, "rmse_holdout_after": err,
+            "rankings": [[{"name": "offset", "score": 0.5, "t": offset_t},
+                          {"name": "drift", "score": 0.1, "t": None}]]}
 
 
 def test_outcomes_errors_and_missing_files_are_told_apart(tmp_path, capsys):
@@ -29,3 +31,13 @@ def test_outcomes_errors_and_missing_files_are_told_apart(tmp_path, capsys):
     assert "3 files in both runs: 2 the same outcome" in printed
     assert "1 changed; of the same, 1 with the held-out error moved" in printed
     assert "changed     lugre 0.03 N 10 ms clean" in printed
+
+
+def test_the_screens_largest_change_is_found():
+    old = [_row(["drift"], ["drift"], 0.3), _row(["offset"], ["offset"], 0.2)]
+    new = [_row(["drift"], ["drift"], 0.3), _row(["offset"], ["offset"], 0.2, offset_t=6.5)]
+    moved = screen_changes(old, new)
+    assert moved["score"]["largest"] == 0.0 and moved["score"]["count"] == 4
+    assert moved["t"]["count"] == 2  # drift's t is None in both
+    assert moved["t"]["largest"] == 2.5 and moved["t"]["median"] == 1.25
+    assert moved["t"]["where"] == [["lugre", 0.03, 0.01, ["offset"]], "offset"]
