@@ -59,7 +59,8 @@ class _Log(logging.Handler):
             return
         frames = [f"{f.filename.rsplit('/', 2)[-2]}/{f.filename.rsplit('/', 1)[-1]}:{f.lineno}"
                   for f in traceback.extract_stack()
-                  if "/jaxfric/" in f.filename or "/fitting/" in f.filename]
+                  if ("/jaxfric/" in f.filename or "/fitting/" in f.filename)
+                  and not f.filename.endswith("_compile.py")]  # the jit wrapper: its caller
         name = msg.split(" of ", 1)[-1] if kind == "compile" else msg.split("tracing ", 1)[-1]
         self.events.append({"kind": kind, "what": name.split(" in ")[0].split(" for ")[0],
                             "s": float(msg.rsplit(" in ", 1)[-1].split()[0]),
