@@ -5,14 +5,15 @@ solver chunk, its last evaluation, a diagnosis's screens) is `jit`, which is
 **Why.** On a CPU, XLA generates the code of its fusions with its MLIR fusion emitters by
 default. jaxfric's programs are long sequences of small elementwise fusions inside
 ``lax.scan`` loops (the friction models' event logic), for which the older emitters
-(``xla_cpu_use_fusion_emitters=False``) compile in about half the time and run about as
-fast: measured side by side by ``benchmarks/compiler_options.py`` (its JSON; docs/speed.md
+(``xla_cpu_use_fusion_emitters=False``) compile 1.3-1.9x faster and run about as fast:
+measured side by side by ``benchmarks/compiler_options.py`` (its JSON; docs/speed.md
 gives the table). A first fit or diagnosis spends most of its time compiling, so this is
 what a user waits for on a new machine (`benchmarks/diagnose_speed.py`).
 
 **What it changes.** Only the generated code: the same operations in the same order,
 evaluated by other kernels, so that results can differ from XLA's defaults in the last
-bits (1e-14 relative on a fit's prediction), as they differ between CPUs. Where a fit's
+bits (a fit's prediction after 50 steps by 3e-10 N in that benchmark), as they differ
+between CPUs. Where a fit's
 parameters are weakly determined, a refit can end elsewhere along a flat direction.
 
 **Where it applies.** The options are set per program, never globally: other JAX code of
