@@ -9,10 +9,16 @@ The finished file gets the usual permissions (0666 less the umask), as a plain `
 would give it. Every file the library writes (`jaxfric.save_model`,
 `jaxfric.export.to_c`, `jaxfric.export.to_mujoco`) and every output of the command line
 goes through it.
+
+`output_folder` does the same for a folder of outputs (a report, the demo): a folder it
+had to make is removed again, with what was written into it, when the work fails or is
+interrupted before the end; a folder that was there keeps its old files, each either old
+or whole and new.
 """
 
 import contextlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -25,6 +31,8 @@ def _umask() -> int:
 
 #: Temporary files of the `atomic_file`s being written (for `remove_pending`).
 _pending: set[str] = set()
+#: Folders made by the `output_folder`s still being filled (for `remove_pending`).
+_pending_folders: set[Path] = set()
 
 
 @contextlib.contextmanager
@@ -56,10 +64,36 @@ def write_text(path, text: str) -> Path:
     return Path(path)
 
 
+@contextlib.contextmanager
+def output_folder(path):
+    """``with output_folder(path) as folder: ...``: `folder` exists inside the block (made
+    with its missing parents if need be). If the block fails or is interrupted, the folders
+    made here are removed with everything in them; a folder that existed is left alone
+    (its files are written by `atomic_file`, whole or not at all)."""
+    folder = Path(path)
+    made = folder
+    while not made.parent.exists():  # the outermost folder that is missing
+        made = made.parent
+    new = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    if new:
+        _pending_folders.add(made)
+    try:
+        yield folder
+    except BaseException:
+        if new:
+            shutil.rmtree(made, ignore_errors=True)
+        raise
+    finally:
+        _pending_folders.discard(made)
+
+
 def remove_pending() -> None:
-    """Remove the temporary files of the `atomic_file`s still being written: for a process
-    about to end without unwinding. Their targets are left as they were (or as just
-    renamed, whole)."""
+    """Remove the temporary files of the `atomic_file`s still being written, and the
+    folders the `output_folder`s still being filled made: for a process about to end
+    without unwinding. Targets are left as they were (or as just renamed, whole)."""
     for tmp in list(_pending):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+    for folder in list(_pending_folders):
+        shutil.rmtree(folder, ignore_errors=True)

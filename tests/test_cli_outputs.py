@@ -242,3 +242,65 @@ def test_an_interrupted_or_failing_demo_leaves_whole_files_only(tmp_path, monkey
             np.testing.assert_allclose(back, np.column_stack([t, x, F]), rtol=1e-9)
         else:
             assert (out / name).read_text() == text
+
+
+@pytest.mark.parametrize(("exc", "code"), [(KeyboardInterrupt, 130),
+                                           (RuntimeError("solver bug"), None)])
+def test_an_interrupted_or_failing_demo_removes_the_folder_it_made(tmp_path, monkeypatch,
+                                                                   capsys, exc, code):
+    """A demo into a folder that did not exist (nor its parent): Ctrl-C during the fit, or
+    a failing fit, leaves no folder behind (the measurement was already written in it)."""
+    import fitting
+    from fitting.cli import demo
+    from fitting.cli.main import main
+
+    out = tmp_path / "new" / "report"
+    seen = []
+
+    def diagnose(*args, **kw):
+        seen.append(sorted(p.name for p in out.iterdir()))  # the folder, during the work
+        raise exc
+
+    monkeypatch.setattr(demo, "example_measurement", _small_measurement)
+    monkeypatch.setattr(fitting, "diagnose", diagnose)
+    argv = ["demo", "--out", str(out), "--quiet"]
+    if code is None:
+        with pytest.raises(RuntimeError, match="solver bug"):
+            main(argv)
+    else:
+        assert main(argv) == code
+        assert capsys.readouterr().err == "jaxfric demo: interrupted\n"
+    assert seen == [["example.csv"]]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_output_folder_keeps_a_folder_that_was_there(tmp_path):
+    """Only folders made by `output_folder` are removed: one that existed keeps its old
+    files and the whole new ones."""
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    with pytest.raises(KeyboardInterrupt), _atomic.output_folder(out) as folder:
+        _atomic.write_text(folder / "new.txt", "new")
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in out.iterdir()) == ["new.txt", "old.txt"]
+    with _atomic.output_folder(tmp_path / "a" / "b") as folder:  # finished: kept
+        _atomic.write_text(folder / "f.txt", "f")
+    assert (tmp_path / "a" / "b" / "f.txt").read_text() == "f"
+
+
+def test_remove_pending_removes_the_folders_being_filled(tmp_path):
+    """A process ended at once (`fitting.cli._interrupt`) does not unwind: `remove_pending`
+    removes the folder an unfinished `output_folder` made, with its files, and the
+    temporary file of the output being written."""
+    filling = _atomic.output_folder(tmp_path / "new" / "report")
+    folder = filling.__enter__()
+    _atomic.write_text(folder / "example.csv", "t,x,F\n")
+    writing = _atomic.atomic_file(folder / "summary.json")
+    writing.__enter__().write("{")
+    try:
+        _atomic.remove_pending()
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        _atomic._pending.clear()
+        _atomic._pending_folders.clear()

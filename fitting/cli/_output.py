@@ -8,8 +8,9 @@ through a private temporary file in the target's folder (created with O_EXCL by
 file), flushes and fsyncs it, and renames it over the target; on any exit before that,
 Ctrl-C and SIGTERM included (see `fitting.cli.main`), the temporary file is removed and
 the target is untouched (`remove_pending` does it for a process ended at once by
-`fitting.cli._interrupt`). Both live in `jaxfric._atomic`, which the library's own
-writers use too.
+`fitting.cli._interrupt`). `output_folder` does the same for a report's folder: one it
+made is removed again if the work does not finish. They live in `jaxfric._atomic`, which
+the library's own writers use too.
 """
 
 import json
@@ -17,7 +18,7 @@ import math
 import os
 from pathlib import Path
 
-from jaxfric._atomic import atomic_file, remove_pending  # noqa: F401 (re-exported)
+from jaxfric._atomic import atomic_file, output_folder, remove_pending  # noqa: F401 (re-exported)
 from jaxfric.data import DataError
 
 

@@ -160,13 +160,15 @@ def diagnose_measurement(args, kind: str, m, log, report):
     if report:
         from types import SimpleNamespace
 
+        from ._output import output_folder
         from .report import write_report
 
-        page = write_report(
-            report,
-            SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: v, kind=m.kind),
-            d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
-        )
+        with output_folder(report):  # a folder made here goes again if interrupted
+            page = write_report(
+                report,
+                SimpleNamespace(t=m.t, x=m.x, F=force, velocity=lambda: v, kind=m.kind),
+                d, title=f"jaxfric diagnose {Path(str(m.source)).name}",
+            )
         log(f"report written to {page} (figures and diagnosis.json beside it)")
     return d
 

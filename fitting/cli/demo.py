@@ -26,7 +26,7 @@ from jaxfric import effects as fx
 from jaxfric.examples import diagnosis_motion, diagnosis_truth
 
 from .._derivatives import estimate_velocity
-from ._output import atomic_file, write_json
+from ._output import atomic_file, output_folder, write_json
 
 
 NOISE_N = 0.05
@@ -52,11 +52,17 @@ def example_measurement(seed: int = 0, dt: float = 2e-2):
 
 
 def run(out: Path, log=print) -> dict:
+    """The demo into the folder `out` (made if need be); returns the summary."""
+    t0 = time.perf_counter()
+    # A folder made here is removed again if the demo does not finish (Ctrl-C, an error).
+    with output_folder(out):
+        return _run(out, t0, log)
+
+
+def _run(out: Path, t0: float, log) -> dict:
     from .. import diagnose, initial_model
     from .report import write_report
 
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
     t, x, F, _ = example_measurement()
     with atomic_file(out / "example.csv") as f:
         np.savetxt(f, np.column_stack([t, x, F]), delimiter=",", header="t[s],x[m],F[N]",

@@ -95,12 +95,14 @@ def run(args) -> int:
 
 
 def _write_c(args, texts, atomic_file) -> None:
+    from ._output import output_folder
+
     folder = Path(args.c_dir)
-    folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "jaxfric_model.h", folder / "jaxfric_model.c"]
-    for path, text in zip(paths, texts):
-        with atomic_file(path) as f:
-            f.write(text)
+    with output_folder(folder):  # a folder made here goes again if interrupted
+        for path, text in zip(paths, texts):
+            with atomic_file(path) as f:
+                f.write(text)
     if not args.quiet:
         for path in paths:
             print(f"wrote {path}")

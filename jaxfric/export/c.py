@@ -19,7 +19,7 @@ checks it against `simulate`.
 
 from pathlib import Path
 
-from .._atomic import write_text
+from .._atomic import output_folder, write_text
 from .._models._base import AbstractFrictionModel
 from ..effects import WithEffects
 from ._effects_c import effect_part
@@ -163,8 +163,8 @@ def to_c(model, directory) -> tuple[Path, Path]:
         model = load_model(model)
     header, source = c_code(model)
     folder = Path(directory)
-    folder.mkdir(parents=True, exist_ok=True)
     paths = folder / HEADER_NAME, folder / SOURCE_NAME
-    for path, text in zip(paths, (header, source)):
-        write_text(path, text)
+    with output_folder(folder):  # a folder made here goes again if writing fails
+        for path, text in zip(paths, (header, source)):
+            write_text(path, text)
     return paths
