@@ -1,9 +1,10 @@
 """Cost of the exported C step (`jaxfric.export`) per sample, next to jaxfric and Numba.
 
 For each model the export is compiled with the system C compiler (``cc -O2 -std=c99``) and
-timed as a controller would run it: one C loop calling ``jaxfric_step`` on every sample of
-arrays (`jaxfric.export.compile_c`; one ``ctypes`` call per pass, so Python is not in the
-loop). Next to it, on the same motion and in the same run: ``jaxfric.simulate`` (the
+timed as a controller would run it: one C loop calling the step (``jaxfric_step_load``,
+which ``jaxfric_step`` wraps with the load 0) on every sample of arrays
+(`jaxfric.export.compile_c`; one ``ctypes`` call per pass, so Python is not in the loop).
+Next to it, on the same motion and in the same run: ``jaxfric.simulate`` (the
 whole-trajectory JAX path, after its compilation) per sample, the Numba baseline
 (``benchmarks/numba_two_state.py``, two-state only), and ``jax.jit(model.step)`` called once
 per sample from Python (what a Python control loop would pay per call; on fewer samples).

@@ -62,6 +62,11 @@ def trajectory(seed: int, velocity: str = "backward"):
 MOTIONS = [trajectory(1), trajectory(2, "central")]
 
 
+def load_signal(t):
+    """A transmitted load (N) that changes sign and size along the motion."""
+    return 40.0 * np.sin(2 * np.pi * (t - t[0]) / 0.7) + 15.0
+
+
 def _normalized():
     m = paper.two_state()
     return eqx.tree_at(lambda m: m.shape, m,
@@ -105,6 +110,7 @@ def _effects(x):
         "ripple": fx.Ripple(rip_sin=(0.3, -0.1, 0.05), rip_cos=(0.2, 0.08, -0.04),
                             period=300 * UM),
         "angle_load": fx.AngleLoad(g_sin=3.0, g_cos=-1.5),
+        "load_friction": fx.LoadFriction(k_load=0.03),
     }
 
 
@@ -123,16 +129,18 @@ def build(tmp_path_factory):
     return get
 
 
-def _reference(model, t, x, v):
+def _reference(model, t, x, v, load=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", jaxfric.StackOverflowWarning)
-        return np.asarray(jaxfric.simulate(model, t, x, v))
+        return np.asarray(jaxfric.simulate(model, t, x, v, load=load))
 
 
 def _check(compiled, model):
+    """The compiled step against `simulate` on both motions, with the load signal given to
+    both (read only by the load_friction effect)."""
     for t, x, v in MOTIONS:
-        want = _reference(model, t, x, v)
-        got = compiled.run(t, x, v)
+        want = _reference(model, t, x, v, load_signal(t))
+        got = compiled.run(t, x, v, load=load_signal(t))
         scale = np.max(np.abs(want))
         assert scale > 0.5
         err = np.abs(got - want)
@@ -179,11 +187,33 @@ def test_all_effects_together_match_simulate(build, base):
     _check(build(f"{base}_all_effects", model), model)
 
 
-def test_every_effect_is_exportable_or_named_in_the_test():
-    # The effects of the load signal are refused by name (the step has no load input):
-    # test_load_friction.py.
-    assert set(EXPORTABLE) == set(fx.EFFECTS) - set(fx.LOAD_EFFECTS)
+def test_every_effect_is_exportable_and_tested():
+    assert set(EXPORTABLE) == set(fx.EFFECTS)
     assert set(_effects(np.zeros(2))) == set(EXPORTABLE)
+
+
+@needs_cc
+def test_a_model_that_reads_the_load_has_only_the_step_with_load(build, tmp_path):
+    """With load_friction the export has no ``jaxfric_step`` (a caller that forgets the
+    load does not link) and says so; without a load effect it has both steps, and the plain
+    one is the step with load 0. The compiled model refuses to run without the load."""
+    model = paper.two_state() + fx.LoadFriction(k_load=0.03)
+    header, source = to_c(model, tmp_path)
+    h = header.read_text()
+    assert "#define JAXFRIC_NEEDS_LOAD 1" in h
+    assert "double jaxfric_step(" not in h + source.read_text()
+    assert ("double jaxfric_step_load(jaxfric_state *s, double t, double x, double v, "
+            "double load);") in h
+    compiled = build("two_state_paper_load", model)
+    t, x, v = MOTIONS[0]
+    with pytest.raises(ValueError, match="needs the load signal"):
+        compiled.run(t, x, v)
+    # the load really matters: it changes the force, as in simulate
+    assert np.max(np.abs(compiled.run(t, x, v, load=load_signal(t))
+                         - compiled.run(t, x, v, load=np.zeros_like(t)))) > 0.5
+    plain = to_c(paper.two_state(), tmp_path / "plain")[0].read_text()
+    assert "#define JAXFRIC_NEEDS_LOAD 0" in plain
+    assert "double jaxfric_step(jaxfric_state *s, double t, double x, double v);" in plain
 
 
 @needs_cc
@@ -274,6 +304,13 @@ def test_cli_export_writes_the_same_code_as_to_c(tmp_path):
     got = [(tmp_path / "new" / "c" / n).read_text() for n in ("jaxfric_model.h",
                                                                 "jaxfric_model.c")]
     assert got == want
+    assert "jaxfric_step_load" not in r.stdout  # nothing to say: the plain step will do
+    loaded = tmp_path / "load.json"
+    loaded.write_text(json.dumps({"fitted_model": model_to_dict(
+        paper.two_state() + fx.LoadFriction(k_load=0.03))}))
+    r = _cli("export", loaded, "--c", tmp_path / "load")
+    assert r.returncode == 0, r.stderr
+    assert "step: jaxfric_step_load(&s, t, x, v, load)" in r.stdout
 
 
 @pytest.mark.parametrize("content, expected", [

@@ -147,11 +147,19 @@ def test_diagnosis_removes_half_the_error_the_hidden_load_adds():
     assert d.baseline.rmse_holdout - d.final.rmse_holdout >= 0.5 * excess, d.summary()
 
 
-def test_c_export_refuses_it_by_name():
-    from jaxfric.export import c_code
+def test_c_export_takes_the_load_and_matches_simulate(tmp_path):
+    """The exported ``jaxfric_step_load`` gives `simulate`'s force with the load signal
+    (tests/test_export_c.py checks every model and effect the same way)."""
+    from jaxfric.export import compile_c, find_compiler
 
-    with pytest.raises(ValueError, match=r"'load_friction'.*no load input"):
-        c_code(paper.tustin() + fx.LoadFriction(k_load=0.02))
+    if find_compiler() is None:
+        pytest.skip("no C compiler: 'cc' is not on the PATH")
+    model = paper.tustin() + fx.LoadFriction(k_load=0.02)
+    t, x, L = _motion(n=400)
+    v = np.r_[0.0, np.diff(x) / np.diff(t)]
+    want = np.asarray(jaxfric.simulate(model, t, x, v, load=L))
+    got = compile_c(model, tmp_path).run(t, x, v, load=L)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.max(np.abs(want)))
 
 
 def test_cli_simulate_reads_the_load_column_and_names_a_missing_one(tmp_path):

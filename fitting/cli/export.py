@@ -20,8 +20,9 @@ axis):
   jaxfric_init(&s, t0, x0);
   F = jaxfric_step(&s, t, x, v);   /* every sample, in time order */
 
-It reproduces jaxfric's simulate sample by sample. Effects with no causal per-sample form
-are refused by name.
+It reproduces jaxfric's simulate sample by sample. A model with load-dependent friction
+(load_friction) has jaxfric_step_load(&s, t, x, v, load) instead, load in N (N m).
+Effects with no causal per-sample form are refused by name.
 
 --mujoco writes an MJCF with one joint (--joint slide or hinge) and a passive dcmotor
 actuator (MuJoCo 4) carrying LuGre friction, viscous damping and cogging; other models
@@ -107,3 +108,6 @@ def _write_c(args, texts, atomic_file) -> None:
         for path in paths:
             print(f"wrote {path}")
         print(f"model: {texts[0].splitlines()[0].split('(', 1)[1].rsplit(')', 1)[0]}")
+        if "#define JAXFRIC_NEEDS_LOAD 1" in texts[0]:
+            print("step: jaxfric_step_load(&s, t, x, v, load), load in N (N m on a rotary "
+                  "axis): the model reads the transmitted load")

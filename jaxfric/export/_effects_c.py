@@ -1,10 +1,11 @@
 """C translations of the effects of `jaxfric.effects` (`WithEffects.step`): each returns a
 `Part` whose step statements add the effect's term to ``total``. In scope: ``t`` (s),
 ``x`` (m), ``v`` (m/s), ``dt`` (s), ``dx`` (m), ``a`` (m/s^2, the backward difference of
-``v``, 0 at the first sample), ``f`` (the base model's force, N) and ``stat`` (its Stribeck
-curve ``s(v)``, N). Effects without a translation are refused by name; so are the effects
-that read the load signal (`jaxfric.effects.LOAD_EFFECTS`), as the exported step takes
-``(t, x, v)`` only."""
+``v``, 0 at the first sample), ``f`` (the base model's force, N), ``stat`` (its Stribeck
+curve ``s(v)``, N) and ``load`` (the transmitted load, N or N m: the argument of
+``jaxfric_step_load``). Effects without a translation are refused by name. `reads_load`
+says whether a model has an effect that reads the load (`jaxfric.effects.LOAD_EFFECTS`):
+its export then has only ``jaxfric_step_load``, so that the load cannot be forgotten."""
 
 import numpy as np
 
@@ -106,6 +107,13 @@ def _presliding(e):
               "      total += s->pre_h - JF_F_PRE * jf_sign(v); }\n"))
 
 
+def _load_friction(e):
+    return Part(consts=[_c(e, "k_load")], step=(
+        "    { double d = jf_div(f, fabs(stat));\n"
+        "      d = d < -1.0 ? -1.0 : (d > 1.0 ? 1.0 : d);\n"
+        "      total += JF_K_LOAD * fabs(load) * d; }\n"))
+
+
 def _friction_lag(e):
     return Part(
         consts=[_c(e, "lag_gain"), _c(e, "tau")],
@@ -125,23 +133,21 @@ _TRANSLATORS = {
     fx.Inertia: _inertia, fx.Offset: _offset, fx.Asymmetry: _asymmetry, fx.Cogging: _cogging,
     fx.PositionDependence: _position_dependence, fx.PositionLoad: _position_load,
     fx.Drift: _drift, fx.Presliding: _presliding, fx.FrictionLag: _friction_lag,
-    fx.Ripple: _ripple, fx.AngleLoad: _angle_load,
+    fx.Ripple: _ripple, fx.AngleLoad: _angle_load, fx.LoadFriction: _load_friction,
 }
 
 #: Names of the effects the C export translates.
 EXPORTABLE = tuple(sorted(cls.name for cls in _TRANSLATORS))
 
 
+def reads_load(effects) -> bool:
+    """Whether one of `effects` reads the load signal (`jaxfric.effects.LOAD_EFFECTS`)."""
+    return any(getattr(e, "name", None) in fx.LOAD_EFFECTS for e in effects)
+
+
 def effect_part(effect) -> Part:
     """The `Part` adding `effect`'s term to ``total``; `ExportError` if it has none."""
     translate = _TRANSLATORS.get(type(effect))
-    if getattr(effect, "name", None) in fx.LOAD_EFFECTS:
-        raise ExportError(f"the effect '{effect.name}' ({type(effect).__name__}) cannot be "
-                          "exported to C: it reads the transmitted load, and the exported "
-                          "jaxfric_step(s, t, x, v) has no load input; add the term "
-                          f"k_load * |load| * clip(f / |s(v)|, -1, 1) (k_load = "
-                          f"{float(effect.k_load):.6g}) in your own code, or export the model "
-                          "without it")
     if translate is None:
         name = getattr(effect, "name", type(effect).__name__)
         raise ExportError(f"the effect '{name}' ({type(effect).__name__}) cannot be exported "
