@@ -43,8 +43,8 @@ held-out RMSE after each addition is reported; an addition whose refit removes l
 significant candidate is tried. When nothing is significant but the best score is at least
 ``4*min_score`` (a large effect whose screen a second missing effect made inconsistent),
 that candidate is tried too, and kept only if the refit's held-out improvement is
-consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is large (at
-least ``4*min_score``, `fitting._folds.needs_folds`) but not consistent on the one split, as
+consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is clear (at
+least ``2*min_score``, `fitting._folds.needs_folds`) but not consistent on the one split, as
 for an effect that acts in a regime the motion visits a few times, is refitted with each of the
 other two folds of blocks held out in turn (`fitting._folds`); it is added when the
 evidence of all three folds passes the same rule, or when its gain replicates where its

@@ -39,15 +39,28 @@ cost more steps; fold 2, the one split that is clean, must pass the size test fi
 
 It costs four refits (two for the model without the effect, `on_folds`, done once a round
 and shared by the round's candidates; two with it), so the diagnosis asks for it only where
-the single split is inconclusive but the held-out gain large (`needs_folds`: at least
-``4*min_score``, 20 % by default, the size at which the screen also tries a candidate that
-is not significant). First asked for at a gain of `STRONG_SHARE` (a third), it left an
-effect that loses on the one split where the base model's mismatch dominates: on the
-diagnosis bench's GMS truth, a level changing along the travel after an asymmetry removed
-23 % of the held-out SSE with ``t = 0.7``; on all three folds 45.8 % with ``t = 3.7``,
-where it acts 69 %, 50 % and 42 %. Terms that fit the mismatch do not replicate: on the
-same truth's clean file at 5 ms a cogging removed 24.5 % of the held-out SSE on the one
-split, on the three folds 8.3 %, -1.6 % and 33 % where it acts.
+the single split is inconclusive but the held-out gain clear (`needs_folds`: at least
+``2*min_score``, 10 % by default, the size at which a leading candidate is refitted even
+when its screen is not significant). First asked for at a gain of `STRONG_SHARE` (a third),
+it left an effect that loses on the one split where the base model's mismatch dominates:
+on the diagnosis bench's GMS truth, a level changing along the travel after an asymmetry
+removed 23 % of the held-out SSE with ``t = 0.7``; on all three folds 45.8 % with
+``t = 3.7``, where it acts 69 %, 50 % and 42 %. Then asked for from 20 % (``4*min_score``),
+it left the LuGre truth's friction lag at 10 ms: 18.9 % removed on the one split with
+``t = 2.6`` over 102 batches (0.08 N of noise; 19.6 %, ``t = 2.8`` at 0.03 N), on all
+three folds 6.4 % with ``t = 4.4`` over 222 batches (6.4 %, 4.1). Terms that fit the
+mismatch do not replicate: on the same GMS truth's clean file at 5 ms a cogging removed
+24.5 % of the held-out SSE on the one split, on the three folds 8.3 %, -1.6 % and 33 %
+where it acts; of the clean files' refits between 10 and 20 % (tried when the threshold
+was lowered), a friction lag on the LuGre truth at 5 ms (10.8 %, ``t = 2.0``) removed
+1.1 % on all folds (``t = 2.3``), an asymmetry on the GMS truth at 5 ms with 0.08 N
+(12.2 %, ``t = 2.9``) 5.7 % (``t = 1.3``), and from a GMS start on the two-state truth a
+cogging (13.1 %) and a Stribeck hump (19.2 %) 9.0 % and 13.8 % (``t`` 1.8 and 1.6).
+
+On all folds the evidence must also be large enough: at least `min_score` of the SSE of
+all samples (`FoldEvidence.holds`), the share the screen asks of a significant candidate;
+a term that removes a little everywhere can have a high ``t`` over three times the
+batches. (Every effect the three folds confirmed on the bench removed at least 10.9 %.)
 """
 
 import dataclasses
@@ -78,11 +91,11 @@ class FoldEvidence:
         return bool(self.shares) and min(self.shares) >= STRONG_SHARE
 
     def holds(self, min_t: float, min_score: float) -> bool:
-        """The rule of `fitting._evidence.convincing` on all folds, or replicated where it
-        acts in each of them while removing at least `min_score` of all the SSE (the
-        module docstring)."""
-        return convincing(self.removed, self.t, min_t) or (
-            self.replicated() and self.removed >= min_score)
+        """At least `min_score` of all the SSE removed, and the rule of
+        `fitting._evidence.convincing` on all folds or replicated where it acts in each of
+        them (the module docstring)."""
+        return self.removed >= min_score and (
+            convincing(self.removed, self.t, min_t) or self.replicated())
 
     def words(self) -> str:
         shares = ", ".join(f"{100 * s:.3g} %" for s in self.shares)
@@ -96,8 +109,8 @@ class FoldEvidence:
 
 def needs_folds(removed: float, min_score: float) -> bool:
     """Whether a refit that removed `removed` of the held-out SSE, inconsistently on the one
-    split, is large enough to be checked on all three folds: at least ``4*min_score``."""
-    return removed >= 4 * min_score
+    split, is large enough to be checked on all three folds: at least ``2*min_score``."""
+    return removed >= 2 * min_score
 
 
 def on_folds(ctx: _Context, model, added, resid) -> np.ndarray:
