@@ -139,8 +139,6 @@ OTHER_TRUTHS = ("lugre", "two_state_power")
 OTHER_FAILURES: dict[tuple[str, str], str] = {
     ("lugre", "quadratic_drag"): "nothing is added: the base model absorbs the drag "
                                   "(held-out RMSE within 10 % of the clean twin's)",
-    ("lugre", "friction_lag"): "nothing is added: its refit removes 20 % of the held-out SSE "
-                               "with t about 2.8 (needs 3)",
 }
 
 
