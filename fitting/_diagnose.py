@@ -46,12 +46,13 @@ that candidate is tried too, and kept only if the refit's held-out improvement i
 consistent where it acts (``t`` at least `min_t`). A refit whose held-out gain is clear (at
 least ``2*min_score``, `fitting._folds.needs_folds`) but not consistent on the one split, as
 for an effect that acts in a regime the motion visits a few times, is refitted with each of the
-other two folds of blocks held out in turn (`fitting._folds`); it is added when the
-evidence of all three folds passes the same rule, or when its gain replicates where its
-term is large, in each fold. When nothing holds up, alone or in pairs (below), the
-leading candidates (of the three best scores, those of at least ``2*min_score``) are
-refitted too, and the refit alone decides (`_try_leaders`: the linearised screen sees only
-part of what a refit removes). A candidate tried and not added says why in its evidence.
+other two folds of blocks held out in turn (`fitting._folds`); it is added when it removes
+at least `min_score` of the SSE of all folds and that evidence passes the same rule, or
+its gain replicates where its term is large, in each fold. When nothing holds up, alone
+or in pairs (below), the leading candidates (of the three best scores, those of at least
+``2*min_score``) are refitted too, and the refit alone decides (`_try_leaders`: the
+linearised screen sees only part of what a refit removes). A candidate tried and not
+added says why in its evidence.
 
 After the last step the baseline and final models are checked for plausibility
 (`fitting._plausibility`: presliding range against the strokes, lag time against their
