@@ -139,6 +139,10 @@ OTHER_TRUTHS = ("lugre", "two_state_power")
 OTHER_FAILURES: dict[tuple[str, str], str] = {
     ("lugre", "quadratic_drag"): "nothing is added: the base model absorbs the drag "
                                   "(held-out RMSE within 10 % of the clean twin's)",
+    ("lugre", "friction_lag"): "found first (on all three folds), but it removes 36 % of the "
+                               "excess over this test's clean file (seed 0: 0.283 N held "
+                               "out), which is another motion; over its clean twin (the same "
+                               "motion without the lag, 0.353 N: the bench's measure) 92 %",
 }
 
 
