@@ -6,7 +6,10 @@ after the diagnosis (N). A file's outcome is the same when it added the same eff
 the same order; its error moved when the two held-out errors differ by more than
 `--rtol` (relative). Files in one run only are listed apart. Also: how far the first
 screen's statistics moved (every candidate's score and ``t`` in both runs: the median and
-the largest change, and where the largest was).
+the largest change, and where the largest was). A candidate refitted in the first round of
+either run is left out: the diagnosis records its refit's verdict in the ranking (a
+confirmed candidate's ``t`` becomes its refit's or its folds'), so its change is not the
+screen's.
 
     python benchmarks/bench_diff.py OLD.json NEW.json [--rtol 1e-3] [--json OUT]
 
@@ -56,15 +59,19 @@ def compare(old: list[dict], new: list[dict], rtol: float = 1e-3) -> dict:
 def screen_changes(old: list[dict], new: list[dict]) -> dict:
     """For ``"score"`` and ``"t"``: the median and largest absolute change of the first
     screen's value of a candidate between the runs (files in both, candidates in both
-    rankings, ``t`` where both are finite), and the ``[file, candidate]`` of the largest."""
+    rankings and refitted in the first round of neither, ``t`` where both are finite), and
+    the ``[file, candidate]`` of the largest."""
     a, b = {key(r): r for r in old}, {key(r): r for r in new}
     out = {}
     for stat in ("score", "t"):
         changes = []
         for k in a.keys() & b.keys():
+            tried = {n for r in (a[k], b[k]) for tr in r.get("trials", ())
+                     if tr["round"] == 0 for n in tr["effects"]}
             ca = {c["name"]: c[stat] for c in a[k]["rankings"][0]}
             cb = {c["name"]: c[stat] for c in b[k]["rankings"][0]}
-            changes += [(abs(ca[n] - cb[n]), _file(k), n) for n in ca.keys() & cb.keys()
+            changes += [(abs(ca[n] - cb[n]), _file(k), n)
+                        for n in (ca.keys() & cb.keys()) - tried
                         if ca[n] is not None and cb[n] is not None]
         if changes:
             big = max(changes, key=lambda c: c[0])

@@ -41,3 +41,14 @@ def test_the_screens_largest_change_is_found():
     assert moved["t"]["count"] == 2  # drift's t is None in both
     assert moved["t"]["largest"] == 2.5 and moved["t"]["median"] == 1.25
     assert moved["t"]["where"] == [["lugre", 0.03, 0.01, ["offset"]], "offset"]
+
+
+def test_a_candidate_refitted_in_the_first_round_is_left_out():
+    """Its ranking entry holds its refit's verdict (a confirmed candidate's t is the
+    refit's), so a change there is not the screen's."""
+    old = [_row(["offset"], ["offset"], 0.2)]
+    new = [_row(["offset"], ["offset"], 0.2, offset_t=6.5)]
+    new[0]["trials"] = [{"round": 0, "effects": ["offset"]}]
+    moved = screen_changes(old, new)
+    assert moved["score"]["count"] == 1 and moved["score"]["where"][1] == "drift"
+    assert "t" not in moved  # drift's t is None in both: nothing left to compare

@@ -203,6 +203,20 @@ def _diagnosis_raising(exc):
     return diagnose
 
 
+def _run_demo(out, code, capsys):
+    """``jaxfric demo --out OUT`` in-process: exit `code` with the one line, or, for
+    ``None``, the work's own error ("solver bug") raised."""
+    from fitting.cli.main import main
+
+    argv = ["demo", "--out", str(out), "--quiet"]
+    if code is None:
+        with pytest.raises(RuntimeError, match="solver bug"):
+            main(argv)
+    else:
+        assert main(argv) == code
+        assert capsys.readouterr().err == "jaxfric demo: interrupted\n"
+
+
 @pytest.mark.parametrize(("where", "exc", "code"), [
     ("example.csv", KeyboardInterrupt, 130),   # Ctrl-C while the measurement is written
     ("fit", KeyboardInterrupt, 130),           # Ctrl-C during the fit
@@ -215,7 +229,6 @@ def test_an_interrupted_or_failing_demo_leaves_whole_files_only(tmp_path, monkey
     fails."""
     import fitting
     from fitting.cli import demo
-    from fitting.cli.main import main
 
     out = tmp_path / "report"
     out.mkdir()
@@ -227,13 +240,7 @@ def test_an_interrupted_or_failing_demo_leaves_whole_files_only(tmp_path, monkey
         monkeypatch.setattr(demo.np, "savetxt", _half_then(exc))
     else:
         monkeypatch.setattr(fitting, "diagnose", _diagnosis_raising(exc))
-    argv = ["demo", "--out", str(out), "--quiet"]
-    if code is None:
-        with pytest.raises(RuntimeError, match="solver bug"):
-            main(argv)
-    else:
-        assert main(argv) == code
-        assert capsys.readouterr().err == "jaxfric demo: interrupted\n"
+    _run_demo(out, code, capsys)
     assert sorted(p.name for p in out.iterdir()) == sorted(old)  # no temp file
     for name, text in old.items():
         if name == "example.csv" and where == "fit":  # written whole before the fit
@@ -252,7 +259,6 @@ def test_an_interrupted_or_failing_demo_removes_the_folder_it_made(tmp_path, mon
     a failing fit, leaves no folder behind (the measurement was already written in it)."""
     import fitting
     from fitting.cli import demo
-    from fitting.cli.main import main
 
     out = tmp_path / "new" / "report"
     seen = []
@@ -263,13 +269,7 @@ def test_an_interrupted_or_failing_demo_removes_the_folder_it_made(tmp_path, mon
 
     monkeypatch.setattr(demo, "example_measurement", _small_measurement)
     monkeypatch.setattr(fitting, "diagnose", diagnose)
-    argv = ["demo", "--out", str(out), "--quiet"]
-    if code is None:
-        with pytest.raises(RuntimeError, match="solver bug"):
-            main(argv)
-    else:
-        assert main(argv) == code
-        assert capsys.readouterr().err == "jaxfric demo: interrupted\n"
+    _run_demo(out, code, capsys)
     assert seen == [["example.csv"]]
     assert list(tmp_path.iterdir()) == []
 
