@@ -21,7 +21,7 @@ USER_DOCS = [p for p in [ROOT / "README.md", ROOT / "CONTRIBUTING.md",
 GUIDES = ["index.md", "fitting.md", "diagnosis.md", "runs.md", "rotary.md",
           "using_a_model.md", "data.md", "cli.md", "tribometer.md", "validation.md",
           "contributing.md"]
-#: Pages whose ``python`` blocks are complete programs; the slow ones run with -m slow.
+#: Pages whose ``python`` blocks are complete programs (each compiles a fit: slow tests).
 RUNNABLE = ["README.md", "docs/index.md"]
 RUNNABLE_SLOW = ["docs/runs.md"]
 MAX_WORDS = 15_000
@@ -146,6 +146,7 @@ def _run_blocks(pages, tmp_path):
         assert run.returncode == 0, f"{pages}, block {i}:\n{block}\n{run.stderr[-3000:]}"
 
 
+@pytest.mark.slow
 def test_getting_started_example_runs(tmp_path):
     _run_blocks(RUNNABLE, tmp_path)
     assert (tmp_path / "model.json").exists()
