@@ -21,10 +21,9 @@ of the velocity estimate over `ACCELERATION_WINDOW_S` (or the velocity's window 
 longer), the Savitzky-Golay second derivative, or ``None`` for ``"backward"`` (the model
 then takes the backward difference of the velocity, as `jaxfric.simulate` and a
 controller's step do, which lags by a whole sample). Differencing twice amplifies the
-position's quantisation: at 1 ms on the diagnosis bench's 0.05 um encoder, the backward
-difference carries 0.012 m/s^2 of noise (0.24 N through 20 kg), the central difference
-from sample to sample 0.0089, over 10 ms 0.0041, about what 10 ms sampling gives
-(`benchmarks/acceleration_noise.py`). A difference over 10 ms passes a mass term's
+position's quantisation, and the noise falls with the span of the difference: at 1 ms
+sampling a central difference over 10 ms carries about a third of the backward
+difference's noise, about what 10 ms sampling gives. A difference over 10 ms passes a mass term's
 acceleration up to 10 Hz within 1.6 % (``sinc``) and changes nothing at a sampling of
 5 ms or slower, where it is the difference of the neighbouring samples.
 

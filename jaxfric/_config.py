@@ -5,8 +5,8 @@ by millinewtons over nanometres: float32 (about 7 significant digits) loses most
 jaxfric therefore turns on JAX's 64-bit mode when it is imported, unless the environment
 variable ``JAXFRIC_NO_X64`` is set to a non-empty value other than ``0``. The switch is
 global to JAX (it is how JAX works), so import jaxfric before creating any JAX arrays.
-Everything in jaxfric also runs in float32 if x64 is left off; BENCHMARKS.md reports how
-much accuracy that costs.
+Everything in jaxfric also runs in float32 if x64 is left off, with less accurate
+presliding.
 
 Compiled programs can be kept on disk between processes (`enable_compilation_cache`):
 the ``jaxfric`` command does it by default, the library only when asked.
@@ -46,7 +46,7 @@ MIN_COMPILE_S = 0.2
 def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
     """Keep compiled programs on disk, so that a new process skips their compilation.
 
-    A fit compiles its solver for seconds on a CPU (docs/benchmark_notes.md, "Fits"); with the
+    A fit compiles its solver for seconds on a CPU (docs/speed.md); with the
     cache, a later process that runs the same fit (same model, free parameters, data
     shape and solver settings) loads it instead. This is JAX's persistent compilation
     cache (``jax_compilation_cache_dir``); JAX keys it by the program, the JAX version

@@ -146,8 +146,8 @@ def estimate_deadband(x) -> float:
 
 
 #: Consecutive reversals within the noise band that make `deadband_choice` apply the play:
-#: two or more fake presliding loops in a row, which nest into the memory stack. The
-#: clean files of benchmarks/deadband_default.py have at most 1 in a row.
+#: several fake presliding loops in a row, which nest into the memory stack. A clean
+#: record has isolated ones at most (a one-count wiggle at a real reversal).
 CHATTER_RUN = 4
 
 
@@ -185,9 +185,9 @@ def deadband_choice(x, v=None, t=None) -> DeadbandChoice:
     consistent velocity when `v`, with `t`, is given: the direction the models use) and
     call a reversal *within the band* when the stroke since the previous reversal point
     is at most ``b``. Apply ``b`` only when `CHATTER_RUN` (4) or more such reversals come
-    in a row somewhere: a standstill's noise chatter (2328 of 2609 reversals, 656 in a row,
-    on the noisy standstill of benchmarks/deadband_default.py), which nests fake loops
-    into the memory stack. Isolated ones (a one-count wiggle at a real reversal: 7 of the
+    in a row somewhere: a standstill's noise chatter (most reversals of a noisy
+    standstill, hundreds in a row), which nests fake loops into the memory stack.
+    Isolated ones (a one-count wiggle at a real reversal: 7 of the
     tribometer's 117, none in a row) are left alone, so a clean file keeps its positions.
     """
     x = np.asarray(x, dtype=np.float64)
