@@ -4,6 +4,7 @@ file with the command line's unit, kind and sign options, result tables and JSON
 Tables and JSON speak the file's kind (`jaxfric.units`): a rotary file's parameters are in
 N m, rad, rad/s, N m s/rad ..., its travel in rad and deg."""
 
+import contextlib
 import math
 import sys
 import warnings
@@ -42,6 +43,18 @@ def check_options(args) -> None:
     if window is not None and not (math.isfinite(window) and window > 0):
         raise _data.DataError(f"--velocity-window {window}: must be a finite time > 0 "
                               "(seconds)")
+
+
+@contextlib.contextmanager
+def about(source):
+    """Within it, a `DataError` the library raises on the arrays of a file (a start value it
+    cannot estimate, a derived velocity it refuses) names the file `source` first."""
+    try:
+        yield
+    except _data.DataError as e:
+        if str(e).startswith(str(source)):
+            raise
+        raise _data.DataError(f"{source}: {e}") from None
 
 
 def cli_kind(args) -> str | None:

@@ -2,7 +2,10 @@
 not at all.
 
 `check_file` and `check_folder` run before a command does any fitting, so a wrong path
-fails in a second with one line instead of after a minute of work. `atomic_file` writes
+fails in a second with one line instead of after a minute of work. `check_clashes` refuses,
+before any work too, an output that would replace one of the command's inputs (the same
+file by resolved path or by inode, a hard or symbolic link included, or an input a report
+folder would write over) or another of its outputs. `atomic_file` writes
 through a private temporary file in the target's folder (created with O_EXCL by
 `tempfile.mkstemp`, so it never follows a planted symlink or overwrites someone else's
 file), flushes and fsyncs it, and renames it over the target; on any exit before that,
@@ -13,6 +16,7 @@ made is removed again if the work does not finish. They live in `jaxfric._atomic
 the library's own writers use too.
 """
 
+import fnmatch
 import json
 import math
 import os
@@ -68,6 +72,49 @@ def _check_folder(folder: Path, option: str) -> Path:
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise DataError(f"{option} {folder}: cannot write in {existing} (permission denied)")
     return folder
+
+
+def _same(a: Path, b: Path) -> bool:
+    """`a` and `b` are one file: the same resolved path, or the same inode (a hard link)."""
+    try:
+        if a.exists() and b.exists() and os.path.samefile(a, b):
+            return True
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def _hits(out: Path, patterns: tuple, other: Path) -> bool:
+    """Writing output `out` (a file, or a folder writing `patterns`) replaces `other`."""
+    if not patterns:
+        return _same(out, other)
+    inside = other.parent if other.name else other
+    return _same(out, inside) and any(fnmatch.fnmatch(other.name, p) for p in patterns)
+
+
+def check_clashes(inputs, outputs) -> None:
+    """No output replaces an input or another output. `inputs`: ``[(option, path)]``;
+    `outputs`: ``[(option, path, patterns)]``, `patterns` empty for a file, else the names
+    (glob patterns) a folder output writes into its folder. Raises `DataError` naming both."""
+    outs = [(o, Path(p), pats) for o, p, pats in outputs if p]
+    for option, out, pats in outs:
+        for what, source in inputs:
+            if source and _hits(out, pats, Path(source)):
+                where = (f"{out}" if not pats else
+                         f"{out} (it writes {', '.join(pats)} there)")
+                raise DataError(f"{option} {where} would overwrite the input {what} {source}; "
+                                "write the output elsewhere")
+    for i, (option, out, pats) in enumerate(outs):
+        for other_option, other, other_pats in outs[i + 1:]:
+            if pats and not other_pats and _hits(out, pats, other):
+                raise DataError(f"{other_option} {other} is a file that {option} {out} "
+                                "writes too: give each output its own path")
+            if other_pats and not pats and _hits(other, other_pats, out):
+                raise DataError(f"{option} {out} is a file that {other_option} {other} "
+                                "writes too: give each output its own path")
+            if _same(out, other):
+                raise DataError(f"{option} {out} and {other_option} {other} are the same "
+                                "output: give each its own path")
 
 
 def _finite_or_null(obj):

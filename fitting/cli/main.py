@@ -308,14 +308,34 @@ _OUTPUTS = {
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
     "export": (("--c", "c_dir", "folder"), ("--mujoco", "mujoco", "file")),
 }
+#: The files a folder output writes into its folder (name patterns), by attribute.
+_FOLDER_FILES = {
+    "report": ("report.html", "diagnosis.json", "*.png"),
+    "c_dir": ("jaxfric_model.h", "jaxfric_model.c"),
+    "out": ("report.html", "diagnosis.json", "summary.json", "example.csv", "*.png"),
+}
+#: The input files of each command: (what, attribute).
+_INPUTS = {
+    "demo": (),
+    "fit": (("FILE", "file"), ("--params", "params")),
+    "simulate": (("FILE", "file"), ("--params", "params")),
+    "compare": (("FILE", "file"),),
+    "diagnose": (("FILE", "file"),),
+    "export": (("RESULT.json", "result"),),
+}
 
 
 def _check_outputs(args) -> None:
-    """Every output path can be written, before any work (`fitting.cli._output`)."""
-    from ._output import check_file, check_folder
+    """Every output path can be written, and replaces neither an input nor another output,
+    before any work (`fitting.cli._output`)."""
+    from ._output import check_clashes, check_file, check_folder
 
+    outputs = []
     for option, attr, kind in _OUTPUTS[args.command]:
         path = getattr(args, attr, None)
         if path:
             (check_file if kind == "file" else check_folder)(path, option)
+            outputs.append((option, path, () if kind == "file" else _FOLDER_FILES[attr]))
+    inputs = [(what, getattr(args, attr, None)) for what, attr in _INPUTS[args.command]]
+    check_clashes(inputs, outputs)
 
