@@ -19,6 +19,37 @@ from .._result import saved_model, weak_lines
 
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
                "lugre": "lugre", "tustin": "tustin"}
+DEFAULT_MODEL = "two-state"
+
+
+def model_kind(model) -> str:
+    """The command line's name (``"two-state"``, ``"gms"``, ``"lugre"``, ``"tustin"``) of
+    `model`'s class, its effects aside."""
+    import jaxfric
+    from jaxfric.effects import WithEffects
+
+    base = model.base if isinstance(model, WithEffects) else model
+    for cls, name in ((jaxfric.TwoState, "two-state"), (jaxfric.GMS, "gms"),
+                      (jaxfric.LuGre, "lugre"), (jaxfric.Tustin, "tustin")):
+        if isinstance(base, cls):
+            return name
+    return type(base).__name__
+
+
+def chosen_kind(args, model=None) -> str:
+    """The model kind of a command: `model`'s (from ``--params``) when given, which an
+    explicit ``--model`` must agree with; else ``--model``, else `DEFAULT_MODEL`.
+    `DataError` when they disagree."""
+    asked = MODEL_NAMES[args.model] if getattr(args, "model", None) else None
+    if model is None:
+        return asked or DEFAULT_MODEL
+    held = model_kind(model)
+    if asked is not None and asked != held:
+        raise _data.DataError(
+            f"--model {args.model}: {args.params} holds a {type(model).__name__} model "
+            f"({held}); leave out --model to use it, or --params to start a {asked} model "
+            "from the data")
+    return held
 
 def param_units(res, kind: str = _units.LINEAR) -> dict[str, str]:
     """``{name: SI unit}`` of a fit result's parameters, as declared on the model's fields,
@@ -113,9 +144,14 @@ def data_units(kind: str) -> dict[str, str]:
 
 
 def result_json(kind: str, res, m) -> dict:
+    """The JSON of a fit: ``"model"`` is the kind of the model fitted (`model_kind`), which
+    the caller's `kind` must be."""
     units = param_units(res, m.kind)
+    fitted = model_kind(res.model)
+    if fitted != kind:
+        raise AssertionError(f"a {fitted} model was fitted, not {kind}")
     return {
-        "model": kind,
+        "model": fitted,
         "kind": m.kind,
         "data_units": data_units(m.kind),
         "file": str(m.source),

@@ -17,6 +17,7 @@ from .._search_copy import SEARCH_SAMPLES
 from .._start import initial_model
 from ._io import (
     about,
+    chosen_kind,
     cli_kind,
     describe,
     diagnosis_json,
@@ -54,9 +55,18 @@ def _progress(log, scale: float, unit: str):
     return show
 
 
+def _kind_of_command(args) -> str:
+    """The model a command fits or simulates: the one of ``--params`` (an explicit
+    ``--model`` must agree), else ``--model`` (`chosen_kind`)."""
+    if not getattr(args, "params", None):
+        return chosen_kind(args)
+    asked = MODEL_NAMES[args.model] if args.model else "two-state"
+    return chosen_kind(args, model_from_json(args.params, asked)[0])
+
+
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    kind = MODEL_NAMES[args.model]
+    kind = _kind_of_command(args)
     if _data.joint_layout(args.file):
         from .joints import fit_joints
 
@@ -252,13 +262,14 @@ def run_simulate(args) -> int:
     if _data.joint_layout(args.file):
         from .joints import simulate_joints
 
-        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json)
+        return simulate_joints(args, MODEL_NAMES[args.model or "two-state"], log,
+                               model_from_json)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
                        check_sign=False, kind=cli_kind(args))
     print_warnings(caught, args)
-    kind = MODEL_NAMES[args.model]
+    kind = _kind_of_command(args)
     if args.params:
         model, what = model_from_json(args.params, kind)
         fitted_on = _json_kind(args.params)

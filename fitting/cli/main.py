@@ -190,9 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_data_options(p)
-    p.add_argument("--model", default="two-state",
-                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
-                   help="model to fit (default: %(default)s)")
+    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model to fit (default: the model of --params, else two-state); "
+                        "with --params it must be that model")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
     _add_deadband_option(p, "auto; the value used is saved in --json")
@@ -213,9 +213,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--units", action="append", metavar="COL=UNIT",
                    help="units of columns without one in the header, e.g. x=mm")
     _add_kind_options(p)
-    p.add_argument("--model", default="two-state",
-                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
-                   help="model (default: %(default)s; the paper's values)")
+    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model (default: the model of --params, else two-state with the "
+                        "paper's values); with --params it must be that model")
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
     p.add_argument("--stack-size", type=int, metavar="N",
                    help="memory stack slots of a two-state model (default: the model's)")
