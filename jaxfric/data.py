@@ -65,6 +65,7 @@ QUANTITY = _units.QUANTITY[LINEAR]
 SI_UNIT = _units.SI_UNIT
 MAX_FILE_BYTES = _files.MAX_FILE_BYTES
 MAX_SAMPLES = _files.MAX_SAMPLES
+MAX_COLUMNS = _files.MAX_COLUMNS
 
 MIN_SAMPLES = 10
 #: A time step shorter than this fraction of the median step is a logger glitch: refused.
