@@ -269,6 +269,8 @@ def run_simulate(args) -> int:
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
                        check_sign=False, kind=cli_kind(args))
     print_warnings(caught, args)
+    for note in m.notes:
+        log(f"note: {note}")
     kind = _kind_of_command(args)
     if args.params:
         model, what = model_from_json(args.params, kind)
