@@ -107,16 +107,26 @@ def _clash_cases(tmp_path):
     }
 
 
-def test_no_output_replaces_an_input_or_another_output(tmp_path, run):
+_CLASHES = ["fit --json the input", "fit --plot the input", "simulate --out the input",
+            "simulate an npz onto itself", "simulate --out a hard link",
+            "simulate a symbolic link onto its target", "compare --json the input",
+            "diagnose an input inside --report", "fit --params onto itself",
+            "export onto its result", "--json and --plot one file",
+            "--json a file --report writes", "--mujoco a file --c writes"]
+
+
+@pytest.mark.parametrize("case", _CLASHES)
+def test_no_output_replaces_an_input_or_another_output(tmp_path, run, case):
     cases = _clash_cases(tmp_path)
+    assert sorted(cases) == sorted(_CLASHES)
     (tmp_path / "r2").mkdir()
     before = _snapshot(*[p for p in tmp_path.rglob("*") if p.is_file()])
-    for name, (argv, expected) in cases.items():
-        rc, out, err = run(*argv)
-        assert rc == 2, (name, err)
-        assert expected in _one_line(err, argv[0]), name
-        assert out == "", name  # refused before any work
-        _unchanged(before)
+    argv, expected = cases[case]
+    rc, out, err = run(*argv)
+    assert rc == 2, err
+    assert expected in _one_line(err, argv[0])
+    assert out == ""  # refused before any work
+    _unchanged(before)
     assert sorted(p for p in tmp_path.rglob("*") if p.is_file()) == sorted(before)
 
 
@@ -183,6 +193,25 @@ def test_an_impossible_time_step_is_refused_naming_its_row(tmp_path, run, comman
         assert "median time step" in line if path == ns else "is the unit of t right" in line
         assert not out.exists()  # no force written from an impossible velocity
         _unchanged(before)
+
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+
+
+@pytest.mark.parametrize("name", ["tribometer.csv", "emps_estimation.csv",
+                                  "emps_validation.csv"])
+def test_measured_records_pass_the_time_step_rules(name):
+    """The measured records' steps are between 0.99 and 2.01 times their median
+    (docs/reliability.md), far from the 1/1000 the rule refuses; they load."""
+    from jaxfric.data import load
+
+    path = DATA / name
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    m = load(path, flip_force=name == "tribometer.csv", check_sign=False)
+    dt = np.diff(m.t)
+    ratio = dt / np.median(dt)
+    assert 0.99 <= ratio.min() and ratio.max() <= 2.01
 
 
 # ---- 4. The saved model is the model fitted -------------------------------------------
