@@ -321,6 +321,14 @@ def test_exported_files_carry_the_fits_status_and_errors(tmp_path, run):
     assert header.count("*/") == header.count("/*")
 
 
+@pytest.mark.parametrize("step", ["-1", "nan", "0"])
+def test_export_refuses_a_time_step_that_is_not_a_time(tmp_path, run, step):
+    result = _fit_json(tmp_path / "fit.json")
+    rc, _, err = run("export", result, "--mujoco", tmp_path / "axis.xml", "--timestep", step)
+    assert rc == 2 and "must be a finite time > 0" in _one_line(err, "export")
+    assert not (tmp_path / "axis.xml").exists()
+
+
 def test_a_real_unconverged_fit_is_refused_then_forced(tmp_path, run):
     """The pipeline a user runs: a fit stopped by its step limit, then export."""
     t, x, F = _signal()

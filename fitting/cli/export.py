@@ -242,6 +242,8 @@ def run(args) -> int:
 
     if not (args.c_dir or args.mujoco):
         raise DataError("nothing to write: give --c DIR and/or --mujoco OUT.xml")
+    if not (math.isfinite(args.timestep) and args.timestep > 0):
+        raise DataError(f"--timestep {args.timestep}: must be a finite time > 0 (seconds)")
     model, data = _load(args.result)
     data = data if isinstance(data, dict) else {}
     problems = objections(data, model)
