@@ -376,6 +376,7 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     )
     if "x" not in declared and kind == LINEAR:
         _check_length_unit(m)
+    _check_motion(source, columns, kind, where or _where(source), require_force)
     for message in _plausible.unit_warnings(m, set(declared)):
         warnings.warn(f"{source}: {message}", DataWarning, stacklevel=3)
     return _orient_force(m, flip_force=flip_force, check_sign=check_sign)
@@ -425,22 +426,14 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
             "it must be strictly increasing"
         )
     _check_ranges(columns, kind, where)
-    _check_steps(columns, kind, where)
+    _check_steps(columns["t"], where)
     if np.ptp(columns["x"]) == 0:
         raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
-    for name in ("F", "u") if require_force else ():
-        if name in columns and np.ptp(columns[name]) == 0:
-            raise DataError(
-                f"{source}: column {name!r} is {float(columns[name][0]):g} "
-                f"{_units.si_unit(name, kind)} in every row: no force was measured, there "
-                "is nothing to fit")
 
 
-def _check_steps(columns: dict[str, np.ndarray], kind: str, where) -> None:
+def _check_steps(t: np.ndarray, where) -> None:
     """Refuse a time step shorter than `MIN_STEP_FRACTION` of the median step (see the
-    module docstring), then position steps whose velocity is beyond `ABSURD` (a time unit
-    mistake: milliseconds read as kiloseconds, or a time column scaled wrongly)."""
-    t, x = columns["t"], columns["x"]
+    module docstring)."""
     dt = np.diff(t)
     median = float(np.median(dt))
     short = dt < MIN_STEP_FRACTION * median
@@ -451,6 +444,15 @@ def _check_steps(columns: dict[str, np.ndarray], kind: str, where) -> None:
             f"{i + 1}, {median / float(dt[i]):.3g} times shorter than the median time step "
             f"({median:.3g} s; the limit is 1/{1 / MIN_STEP_FRACTION:.0f} of it): a logger "
             f"glitch, not a sample; delete row {i + 2} (or merge it with row {i + 1})")
+
+
+def _check_motion(source: str, columns: dict[str, np.ndarray], kind: str, where,
+                  require_force: bool) -> None:
+    """After the unit checks: refuse position steps whose velocity is beyond `ABSURD` (a
+    time unit mistake: a time column scaled wrongly), and a force column with one value
+    throughout when a force is required (nothing to fit)."""
+    t, x = columns["t"], columns["x"]
+    dt = np.diff(t)
     limit = (ABSURD_ROTARY if kind == _units.ROTARY else ABSURD)["v"]
     speed = np.abs(np.diff(x)) / dt
     fast = speed > limit
@@ -462,6 +464,12 @@ def _check_steps(columns: dict[str, np.ndarray], kind: str, where) -> None:
             f"({float(x[i + 1] - x[i]):.3g} {_units.si_unit('x', kind)} in "
             f"{float(dt[i]):.3g} s) is a velocity of {float(speed[i]):.3g} {unit}, absurd "
             f"(limit {limit:g} {unit}): is the unit of t right (declare it, e.g. t[ms])?")
+    for name in ("F", "u") if require_force else ():
+        if name in columns and np.ptp(columns[name]) == 0:
+            raise DataError(
+                f"{source}: column {name!r} is {float(columns[name][0]):g} "
+                f"{_units.si_unit(name, kind)} in every row: no force was measured, there "
+                "is nothing to fit")
 
 
 def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:
