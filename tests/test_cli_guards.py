@@ -130,6 +130,18 @@ def test_no_output_replaces_an_input_or_another_output(tmp_path, run, case):
     assert sorted(p for p in tmp_path.rglob("*") if p.is_file()) == sorted(before)
 
 
+def test_an_output_that_is_a_fifo_is_refused_not_replaced(tmp_path, run):
+    """The atomic rename would put a regular file in the place of a FIFO or a device
+    (``--out /dev/null`` run as root)."""
+    t, x, F = _signal()
+    data = _save(tmp_path / "run.csv", {"t": t, "x": x, "F": F})
+    fifo = tmp_path / "out.fifo"
+    os.mkfifo(fifo)
+    rc, _, err = run("simulate", data, "--out", fifo)
+    assert rc == 2 and "is not a regular file" in _one_line(err, "simulate")
+    assert fifo.is_fifo()
+
+
 def test_an_input_in_a_report_folder_that_the_report_does_not_write_is_fine(tmp_path, run):
     """Only the files a folder output writes clash: data beside a report are left alone."""
     (tmp_path / "c").mkdir()

@@ -53,6 +53,10 @@ def check_folder(path, option: str) -> Path:
 def _check_file(target: Path, option: str) -> Path:
     if target.is_dir():
         raise DataError(f"{option} {target}: is a folder; give a file name")
+    if target.exists() and not target.is_file():
+        # a device (/dev/null), FIFO or socket: the atomic rename would replace it
+        raise DataError(f"{option} {target}: is not a regular file (a device, FIFO or "
+                        "socket); give a file name")
     folder = target.parent
     if not folder.is_dir():
         raise DataError(f"{option} {target}: the folder {folder} does not exist")
