@@ -260,6 +260,15 @@ def test_the_saved_model_name_is_the_model_of_params(tmp_path, run):
     assert "tustin: " in out and "two-state" not in out
 
 
+def test_params_that_are_binary_are_one_line(tmp_path, run):
+    t, x, F = _signal()
+    data = _save(tmp_path / "run.csv", {"t": t, "x": x, "F": F})
+    npz = _save(tmp_path / "run.npz", {"t": t, "x": x, "F": F})
+    for command, out in (("simulate", "--out"), ("fit", "--json")):
+        rc, _, err = run(command, data, "--params", npz, out, tmp_path / "o")
+        assert rc == 2 and "not a JSON file" in _one_line(err, command)
+
+
 # ---- 5. Export refuses what a controller should not run -------------------------------
 
 _LUGRE_NAMES = ("Fs", "Fc", "Vs", "delta", "sigma0", "sigma1", "sigma2")

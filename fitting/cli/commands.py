@@ -224,6 +224,11 @@ def model_from_json(path, kind: str):
         spec = json.loads(path.read_text())
     except json.JSONDecodeError as e:
         raise _data.DataError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
+    except UnicodeDecodeError:
+        raise _data.DataError(f"{path}: not a JSON file (binary data, not UTF-8 text)"
+                              ) from None
+    except OSError as e:
+        raise _data.DataError(f"{path}: cannot be read ({e.strerror or e})") from None
     if not isinstance(spec, dict):
         raise _data.DataError(f"{path}: expected a JSON object (a fit, a diagnosis or a saved "
                               f"model), got a {type(spec).__name__}")
