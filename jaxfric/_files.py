@@ -20,7 +20,7 @@ row). Trailing separators (``1,2,3,``) are accepted; a header of more than `MAX_
 cells (millions of separators, a damaged file) is refused before it is split.
 
 Text is UTF-8; a header cell that is not (a unit such as ``µm`` or ``°`` written by a
-Windows or Latin-1 program) is read as Latin-1, so ``x[µm]`` means micrometres whichever
+Windows or Latin-1 program), or a cell quoted in a message, is read as Latin-1, so ``x[µm]`` means micrometres whichever
 of the two the file was saved in.
 """
 
@@ -250,7 +250,8 @@ def _read_body(source, parsed, rows, standard, where: LineMap):
         if is_number(first[c]) or name in standard:
             keep.append(c)
         else:
-            notes.append(f"column {name!r} is text ({first[c][:20]!r} in row 1): ignored")
+            text = _latin1(first[c][:20])
+            notes.append(f"column {name!r} is text ({text!r} in row 1): ignored")
     values = [array.array("d") for _ in keep]
     for r, row in enumerate(itertools.chain([first], rows)):
         where.note(r + 1)
@@ -265,8 +266,9 @@ def _read_body(source, parsed, rows, standard, where: LineMap):
             try:
                 values[k].append(float(row[c]))
             except ValueError:
+                cell = _latin1(row[c].strip())
                 raise _error(f"{source}:{where.current}: column {parsed[c][0]!r}, "
-                             f"row {r + 1}: {row[c].strip()!r} is not a number") from None
+                             f"row {r + 1}: {cell!r} is not a number") from None
     kept = [parsed[c] for c in keep]
     columns = {name: np.frombuffer(vals, dtype=np.float64).copy()
                for (name, _), vals in zip(kept, values)}
