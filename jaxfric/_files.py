@@ -20,8 +20,8 @@ row). Trailing separators (``1,2,3,``) are accepted; a header of more than `MAX_
 cells (millions of separators, a damaged file) is refused before it is split.
 
 Text is UTF-8; a header cell that is not (a unit such as ``µm`` or ``°`` written by a
-Windows or Latin-1 program), or a cell quoted in a message, is read as Latin-1, so ``x[µm]`` means micrometres whichever
-of the two the file was saved in.
+Windows or Latin-1 program), or a cell quoted in a message, is read as Latin-1, so
+``x[µm]`` means micrometres whichever of the two the file was saved in.
 """
 
 import array
