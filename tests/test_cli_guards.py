@@ -70,6 +70,8 @@ def _clash_cases(tmp_path):
     report = tmp_path / "report"
     report.mkdir()
     inside = _save(report / "diagnosis.json", {"t": t, "x": x, "F": F})  # a CSV so named
+    (report / "joint_2").mkdir()
+    deeper = _save(report / "joint_2" / "loops.png", {"t": t, "x": x, "F": F})
     hard = tmp_path / "hard.csv"
     os.link(run_csv, hard)
     soft = tmp_path / "soft.csv"
@@ -94,6 +96,8 @@ def _clash_cases(tmp_path):
                                      "overwrite the input"),
         "diagnose an input inside --report": (["diagnose", inside, "--report", report],
                                               "overwrite the input"),
+        "diagnose an input in a joint's report folder": (["diagnose", deeper, "--report",
+                                                          report], "joint_*/*.png"),
         "fit --params onto itself": (["fit", run_csv, "--params", fit, "--json", fit],
                                      "overwrite the input --params"),
         "export onto its result": (["export", fit, "--mujoco", fit], "overwrite the input"),
@@ -110,7 +114,8 @@ def _clash_cases(tmp_path):
 _CLASHES = ["fit --json the input", "fit --plot the input", "simulate --out the input",
             "simulate an npz onto itself", "simulate --out a hard link",
             "simulate a symbolic link onto its target", "compare --json the input",
-            "diagnose an input inside --report", "fit --params onto itself",
+            "diagnose an input inside --report", "diagnose an input in a joint's report folder",
+            "fit --params onto itself",
             "export onto its result", "--json and --plot one file",
             "--json a file --report writes", "--mujoco a file --c writes"]
 

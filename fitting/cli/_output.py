@@ -88,12 +88,21 @@ def _same(a: Path, b: Path) -> bool:
     return a.resolve() == b.resolve()
 
 
-def _hits(out: Path, patterns: tuple, other: Path) -> bool:
-    """Writing output `out` (a file, or a folder writing `patterns`) replaces `other`."""
+def _hits(out: Path, patterns: tuple, other: Path) -> str | None:
+    """What output `out` writes over `other`: ``"itself"`` for a file output, the name
+    pattern for a folder writing `patterns` (with ``/`` for a subfolder, such as
+    ``joint_*/report.html``), or ``None``."""
     if not patterns:
-        return _same(out, other)
-    inside = other.parent if other.name else other
-    return _same(out, inside) and any(fnmatch.fnmatch(other.name, p) for p in patterns)
+        return "itself" if _same(out, other) else None
+    for pattern in patterns:
+        parts = pattern.split("/")
+        if len(other.parents) < len(parts):
+            continue
+        tail = other.parts[-len(parts):]
+        if (len(tail) == len(parts) and all(fnmatch.fnmatch(n, p) for n, p in zip(tail, parts))
+                and _same(out, other.parents[len(parts) - 1])):
+            return pattern
+    return None
 
 
 def check_clashes(inputs, outputs) -> None:
@@ -103,11 +112,11 @@ def check_clashes(inputs, outputs) -> None:
     outs = [(o, Path(p), pats) for o, p, pats in outputs if p]
     for option, out, pats in outs:
         for what, source in inputs:
-            if source and _hits(out, pats, Path(source)):
-                where = (f"{out}" if not pats else
-                         f"{out} (it writes {', '.join(pats)} there)")
-                raise DataError(f"{option} {where} would overwrite the input {what} {source}; "
-                                "write the output elsewhere")
+            hit = _hits(out, pats, Path(source)) if source else None
+            if hit:
+                where = "" if hit == "itself" else f" (it writes {hit} there)"
+                raise DataError(f"{option} {out}{where} would overwrite the input {what} "
+                                f"{source}; write the output elsewhere")
     for i, (option, out, pats) in enumerate(outs):
         for other_option, other, other_pats in outs[i + 1:]:
             if pats and not other_pats and _hits(out, pats, other):

@@ -310,7 +310,8 @@ _OUTPUTS = {
 }
 #: The files a folder output writes into its folder (name patterns), by attribute.
 _FOLDER_FILES = {
-    "report": ("report.html", "diagnosis.json", "*.png"),
+    "report": ("report.html", "diagnosis.json", "*.png", "joint_*/report.html",
+               "joint_*/diagnosis.json", "joint_*/*.png"),  # one folder per joint
     "c_dir": ("jaxfric_model.h", "jaxfric_model.c"),
     "out": ("report.html", "diagnosis.json", "summary.json", "example.csv", "*.png"),
 }
