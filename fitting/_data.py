@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxfric import _outliers
-from jaxfric.data import ABSURD_ROTARY, Measurement
+from jaxfric.data import ABSURD_ROTARY, DataError, Measurement
 from jaxfric.motion import velocity
 
 
@@ -87,11 +87,11 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
             a = np.where(w > 0, a, 0.0)
         if a is not None and not np.all(np.isfinite(a)):
             i = int(np.argmax(~np.isfinite(a)))
-            raise ValueError(f"{where}{name} has a non-finite value at index {i}")
+            raise DataError(f"{where}{name} has a non-finite value at index {i}")
     bad = np.diff(t) <= 0
     if bad.any():
         i = int(np.argmax(bad)) + 1
-        raise ValueError(f"{where}t must be strictly increasing; t[{i}] <= t[{i - 1}]")
+        raise DataError(f"{where}t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     if (w < 0).any():
         raise ValueError(f"{where}weights must be >= 0; weights[{int(np.argmax(w < 0))}] < 0")
     if not (w > 0).any():
@@ -106,7 +106,7 @@ def _refuse_absurd(arrays: dict, w: np.ndarray, where: str, names) -> None:
     for name in names:
         found = None if arrays[name] is None else absurd_sample(name, arrays[name], w)
         if found is not None:
-            raise ValueError(f"{where}{found[1]}")
+            raise DataError(f"{where}{found[1]}")
 
 
 def pad(data: Dataset, n: int) -> Dataset:

@@ -130,6 +130,17 @@ def constant_velocity_segments(
     return Segments(**{k: np.asarray(val) for k, val in out.items()})
 
 
+def _slope(speed, force) -> float:
+    """The least-squares slope of `force` over `speed`, and 0 when the speeds are one speed
+    up to round-off (spread below 1e-9 of their size: segment speeds of one commanded
+    speed differ in their last bits, and a line through them is noise, which `np.polyfit`
+    only warns about)."""
+    if speed.size < 2 or np.ptp(speed) <= 1e-9 * np.max(np.abs(speed)):
+        return 0.0
+    ds = speed - speed.mean()
+    return float(ds @ (force - force.mean()) / (ds @ ds))
+
+
 def initial_stribeck(segments: Segments) -> tuple[jaxfric.Stribeck, float]:
     """A rough starting Stribeck curve and ``sigma2`` (N s/m) from segment means.
 
@@ -148,7 +159,7 @@ def initial_stribeck(segments: Segments) -> tuple[jaxfric.Stribeck, float]:
     fast = speed >= np.quantile(speed, 2.0 / 3.0)
     if np.unique(speed[fast]).size < 2:
         fast = speed >= np.unique(speed)[-2] if np.unique(speed).size >= 2 else fast
-    sigma2 = np.polyfit(speed[fast], force[fast], 1)[0] if np.unique(speed[fast]).size >= 2 else 0.0
+    sigma2 = _slope(speed[fast], force[fast])
     sigma2 = max(sigma2, 1e-6 * abs(force[-1]) / speed[-1])
     level = force - sigma2 * speed
     fs = max(level[0], 1e-9)

@@ -19,6 +19,7 @@ import numpy as np
 
 import jaxfric
 from jaxfric import NormalizedPaperShape, paper
+from jaxfric.data import DataError
 from jaxfric.motion import travel_since_reversal, velocity
 
 from ._data import Dataset
@@ -31,10 +32,10 @@ KINDS = ("two-state", "gms", "lugre", "tustin")
 def _level_stribeck(F, vel):
     moving = vel != 0
     if moving.sum() < 3:
-        raise ValueError("no motion in the data: cannot estimate a friction level")
+        raise DataError("no motion in the data: cannot estimate a friction level")
     fc = float(np.median(np.abs(F[moving])))
     if fc <= 0:
-        raise ValueError("the force is zero wherever the data move")
+        raise DataError("the force is zero wherever the data move")
     v90 = float(np.quantile(np.abs(vel[moving]), 0.9))
     stribeck = jaxfric.Stribeck(Fs=1.2 * fc, Fc=fc, Vs=max(0.2 * v90, 1e-12), delta=1.0)
     return stribeck, 0.01 * fc / max(v90, 1e-12)

@@ -16,7 +16,12 @@ compilers do, so that an editor jumps to it) besides the column and the data row
 
 A column whose first value is text (a date, a label) is not a measurement: it is skipped
 with a note, unless it is one of the standard columns (then its cell is an error naming the
-row). Trailing separators (``1,2,3,``) are accepted.
+row). Trailing separators (``1,2,3,``) are accepted; a header of more than `MAX_COLUMNS`
+cells (millions of separators, a damaged file) is refused before it is split.
+
+Text is UTF-8; a header cell that is not (a unit such as ``µm`` or ``°`` written by a
+Windows or Latin-1 program), or a cell quoted in a message, is read as Latin-1, so
+``x[µm]`` means micrometres whichever of the two the file was saved in.
 """
 
 import array
@@ -37,6 +42,9 @@ import numpy as np
 MAX_FILE_BYTES = 1 << 30
 #: Most samples (rows) in one column.
 MAX_SAMPLES = 10_000_000
+#: Most cells in a header line: a measurement has a handful of columns (a robot file of
+#: seven joints about fifty); far more is a damaged file, refused before it is split.
+MAX_COLUMNS = 1000
 
 _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z_0-9]*)\s*(?:\[\s*([^\]]*?)\s*\])?\s*$")
 
@@ -141,6 +149,25 @@ def is_number(s: str) -> bool:
     return True
 
 
+def _latin1(cell: str) -> str:
+    """A header cell read as UTF-8 with the bytes that are not UTF-8 kept as surrogates
+    (``surrogateescape``), decoded again as Latin-1 when it has any."""
+    try:
+        raw = cell.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:
+        return cell
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
+
+
+def _count_cells(first: str) -> int:
+    """The number of cells of a header line, counted without splitting it."""
+    counts = [first.count(sep) for sep in (",", ";", "\t")]
+    return max(counts) + 1 if max(counts) else len(first.split())
+
+
 def _splitter(first: str):
     """A function line -> cells for the separator of the header line: the most frequent of
     ``,``, ``;``, tab; whitespace if none."""
@@ -165,7 +192,8 @@ def read_csv(path: Path, standard: frozenset) -> tuple[list, dict, list[str], Li
     check_path(path)
     _refuse_binary(path)
     try:
-        with _open(path, "r", encoding="utf-8-sig", errors="replace", newline="") as f:
+        with _open(path, "r", encoding="utf-8-sig", errors="surrogateescape",
+                   newline="") as f:
             return _read_text(source, f, standard)
     except csv.Error as e:
         raise _error(f"{source}: not a readable CSV file ({e})") from None
@@ -179,8 +207,13 @@ def _read_text(source, f, standard):
     first = next(lines, None)
     if first is None:
         raise _error(f"{source}: the file is empty")
+    cells = _count_cells(first)
+    if cells > MAX_COLUMNS:
+        raise _error(f"{source}:{where.current}: the header has {cells} cells, more than "
+                     f"the {MAX_COLUMNS} a measurement file may have "
+                     "(jaxfric.data.MAX_COLUMNS): a damaged file? Remove the empty ones")
     rows = _splitter(first)(itertools.chain([first], lines))
-    header = [h.strip() for h in next(rows)]
+    header = [_latin1(h.strip()) for h in next(rows)]
     while header and not header[-1]:
         header.pop()  # a trailing separator
     if header and all(is_number(h) for h in header if h):
@@ -217,7 +250,8 @@ def _read_body(source, parsed, rows, standard, where: LineMap):
         if is_number(first[c]) or name in standard:
             keep.append(c)
         else:
-            notes.append(f"column {name!r} is text ({first[c][:20]!r} in row 1): ignored")
+            text = _latin1(first[c][:20])
+            notes.append(f"column {name!r} is text ({text!r} in row 1): ignored")
     values = [array.array("d") for _ in keep]
     for r, row in enumerate(itertools.chain([first], rows)):
         where.note(r + 1)
@@ -232,8 +266,9 @@ def _read_body(source, parsed, rows, standard, where: LineMap):
             try:
                 values[k].append(float(row[c]))
             except ValueError:
+                cell = _latin1(row[c].strip())
                 raise _error(f"{source}:{where.current}: column {parsed[c][0]!r}, "
-                             f"row {r + 1}: {row[c].strip()!r} is not a number") from None
+                             f"row {r + 1}: {cell!r} is not a number") from None
     kept = [parsed[c] for c in keep]
     columns = {name: np.frombuffer(vals, dtype=np.float64).copy()
                for (name, _), vals in zip(kept, values)}

@@ -19,7 +19,10 @@ source, the column and the (1-based, data) row, and for a text file the line as
 ``FILE:LINE:``: a missing, unreadable or non-regular file
 (devices and FIFOs are refused unread), a file or column beyond the size limits
 (`MAX_FILE_BYTES`, `MAX_SAMPLES`), a wrong NPZ, no header, missing column, non-numeric
-cell, NaN/inf, time not increasing or duplicated, too few samples, no motion at all, absurd
+cell, NaN/inf, time not increasing or duplicated, a time step shorter than
+`MIN_STEP_FRACTION` of the median step (a logger glitch), position steps implying an absurd
+velocity, a force column with one value throughout (when a force is required), too few
+samples, no motion at all, absurd
 magnitudes (beyond `ABSURD`, or a glitch 1000 times beyond the rest of its column,
 `jaxfric._outliers`), and linear positions spanning more than 2 m with no unit declared (millimetres
 read as metres; declare ``x[m]`` to confirm). Suspicious but possible data give a
@@ -28,7 +31,13 @@ ms, mm, mN, deg, mm/s, deg/s, rpm), and a force whose sign is opposite to the fr
 convention (friction has the sign of ``v``), corrected with ``flip_force=True`` (CLI
 ``--flip-force``).
 
-Irregular sampling is kept as it is: every model takes the time column as given.
+Irregular sampling is kept as it is: every model takes the time column as given. A step
+shorter than `MIN_STEP_FRACTION` (1/1000) of the median step is refused, naming its row:
+jitter and dropped samples make steps of a fraction to a few times the median, while a
+step a thousand times shorter is a logger glitch (a record written twice with a clock
+tick between), and a velocity taken over it is a thousand times what the same position
+change gives over an ordinary step (one encoder count becomes an absurd velocity). The
+fraction is the same factor of 1000 the relative outlier rule uses (`jaxfric._outliers`).
 """
 
 import dataclasses
@@ -56,8 +65,11 @@ QUANTITY = _units.QUANTITY[LINEAR]
 SI_UNIT = _units.SI_UNIT
 MAX_FILE_BYTES = _files.MAX_FILE_BYTES
 MAX_SAMPLES = _files.MAX_SAMPLES
+MAX_COLUMNS = _files.MAX_COLUMNS
 
 MIN_SAMPLES = 10
+#: A time step shorter than this fraction of the median step is a logger glitch: refused.
+MIN_STEP_FRACTION = 1e-3
 #: Travel (m) beyond which an undeclared position unit is taken for a mistake.
 MAX_UNDECLARED_SPAN_M = 2.0
 # Beyond these a value is not a friction measurement in SI, whatever the machine.
@@ -364,6 +376,7 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     )
     if "x" not in declared and kind == LINEAR:
         _check_length_unit(m)
+    _check_motion(source, columns, kind, where or _where(source), require_force)
     for message in _plausible.unit_warnings(m, set(declared)):
         warnings.warn(f"{source}: {message}", DataWarning, stacklevel=3)
     return _orient_force(m, flip_force=flip_force, check_sign=check_sign)
@@ -413,8 +426,50 @@ def _check(source: str, columns: dict[str, np.ndarray], require_force: bool,
             "it must be strictly increasing"
         )
     _check_ranges(columns, kind, where)
+    _check_steps(columns["t"], where)
     if np.ptp(columns["x"]) == 0:
         raise DataError(f"{source}: column 'x' is constant: there is no motion at all")
+
+
+def _check_steps(t: np.ndarray, where) -> None:
+    """Refuse a time step shorter than `MIN_STEP_FRACTION` of the median step (see the
+    module docstring)."""
+    dt = np.diff(t)
+    median = float(np.median(dt))
+    short = dt < MIN_STEP_FRACTION * median
+    if short.any():
+        i = int(np.argmax(short))
+        raise DataError(
+            f"{where(i + 2)}: column 't', row {i + 2}: {float(dt[i]):.3g} s after row "
+            f"{i + 1}, {median / float(dt[i]):.3g} times shorter than the median time step "
+            f"({median:.3g} s; the limit is 1/{1 / MIN_STEP_FRACTION:.0f} of it): a logger "
+            f"glitch, not a sample; delete row {i + 2} (or merge it with row {i + 1})")
+
+
+def _check_motion(source: str, columns: dict[str, np.ndarray], kind: str, where,
+                  require_force: bool) -> None:
+    """After the unit checks: refuse position steps whose velocity is beyond `ABSURD` (a
+    time unit mistake: a time column scaled wrongly), and a force column with one value
+    throughout when a force is required (nothing to fit)."""
+    t, x = columns["t"], columns["x"]
+    dt = np.diff(t)
+    limit = (ABSURD_ROTARY if kind == _units.ROTARY else ABSURD)["v"]
+    speed = np.abs(np.diff(x)) / dt
+    fast = speed > limit
+    if fast.any():
+        i = int(np.argmax(fast))
+        unit = _units.si_unit("v", kind)
+        raise DataError(
+            f"{where(i + 2)}: column 'x', row {i + 2}: the step from row {i + 1} "
+            f"({float(x[i + 1] - x[i]):.3g} {_units.si_unit('x', kind)} in "
+            f"{float(dt[i]):.3g} s) is a velocity of {float(speed[i]):.3g} {unit}, absurd "
+            f"(limit {limit:g} {unit}): is the unit of t right (declare it, e.g. t[ms])?")
+    for name in ("F", "u") if require_force else ():
+        if name in columns and np.ptp(columns[name]) == 0:
+            raise DataError(
+                f"{source}: column {name!r} is {float(columns[name][0]):g} "
+                f"{_units.si_unit(name, kind)} in every row: no force was measured, there "
+                "is nothing to fit")
 
 
 def _check_ranges(columns: dict[str, np.ndarray], kind: str, where) -> None:

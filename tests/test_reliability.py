@@ -1,5 +1,5 @@
-"""Reliability (issue 21): every case a careful or hostile user found, with the test that
-proves it is fixed. The tests of this module cover absurd outliers (refused with their line
+"""Reliability (issues 21 and 35): every case a careful or hostile user found, with the test
+that proves it is fixed. The tests of this module cover absurd outliers (refused with their line
 and value, in files, the Python API, diagnosis and batches), moderate spikes (warned with
 their rows), `fit_batch`'s exact round trip, and the file-line numbers of messages; the
 other cases are tested beside the code they concern, listed in `CASES` (checked to exist
@@ -28,7 +28,7 @@ from jaxfric.data import DataError, DataWarning
 from .helpers import strokes_with_loops
 
 
-#: Each case of issue 21's "Why" -> the tests that fail without its fix.
+#: Each case of issues 21's and 35's "Why" -> the tests that fail without its fix.
 CASES = {
     # Round trips and saved results
     "fit -> JSON -> simulate --params reproduces the fit (RMSE 0.425 vs 15.52 N)":
@@ -100,6 +100,30 @@ CASES = {
          "test_cli_deadband.py::test_simulate_default_leaves_a_clean_encoder_file_alone"],
     "a too-small max_reversals under jit is reported, not a silent NaN":
         ["test_direction.py::test_too_small_max_reversals_is_counted_under_jit_and_vmap"],
+    # Issue 35
+    "an output on an input (path, hard or symbolic link, inside a report folder) or on "
+    "another output: refused before any work, input unchanged":
+        ["test_cli_guards.py::test_no_output_replaces_an_input_or_another_output",
+         "test_cli_guards.py::test_an_input_in_a_report_folder_that_the_report_does_not_write"
+         "_is_fine"],
+    "force all zeros (fit, --model lugre, diagnose, compare): one line, not a traceback":
+        ["test_cli_guards.py::test_a_force_of_zero_is_one_line_naming_the_file"],
+    "a timestamp 1 ns after the previous, time scaled by 1e-8: refused by every command, "
+    "simulate writes no force":
+        ["test_cli_guards.py::test_an_impossible_time_step_is_refused_naming_its_row",
+         "test_cli_guards.py::test_measured_records_pass_the_time_step_rules"],
+    "fit --model tustin --params gms.json: refused; the saved 'model' is the one fitted":
+        ["test_cli_guards.py::test_model_and_params_that_disagree_are_refused",
+         "test_cli_guards.py::test_the_saved_model_name_is_the_model_of_params"],
+    "export of an unconverged, undetermined or non-physical fit: refused unless --force; "
+    "status, errors and MuJoCo's approximation said":
+        ["test_cli_guards.py::test_export_refuses_what_should_not_be_exported_unless_forced",
+         "test_cli_guards.py::test_exported_files_carry_the_fits_status_and_errors",
+         "test_cli_guards.py::test_a_real_unconverged_fit_is_refused_then_forced"],
+    "RankWarning on a presliding-only file; 3 million empty header cells; Latin-1 µm":
+        ["test_cli_guards.py::test_presliding_only_file_fits_without_a_numpy_warning",
+         "test_cli_guards.py::test_a_header_of_millions_of_empty_cells_is_refused",
+         "test_cli_guards.py::test_a_micrometre_header_is_read_in_latin1_and_utf8"],
 }
 
 

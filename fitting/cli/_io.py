@@ -4,6 +4,7 @@ file with the command line's unit, kind and sign options, result tables and JSON
 Tables and JSON speak the file's kind (`jaxfric.units`): a rotary file's parameters are in
 N m, rad, rad/s, N m s/rad ..., its travel in rad and deg."""
 
+import contextlib
 import math
 import sys
 import warnings
@@ -18,6 +19,37 @@ from .._result import saved_model, weak_lines
 
 MODEL_NAMES = {"two-state": "two-state", "two_state": "two-state", "gms": "gms",
                "lugre": "lugre", "tustin": "tustin"}
+DEFAULT_MODEL = "two-state"
+
+
+def model_kind(model) -> str:
+    """The command line's name (``"two-state"``, ``"gms"``, ``"lugre"``, ``"tustin"``) of
+    `model`'s class, its effects aside."""
+    import jaxfric
+    from jaxfric.effects import WithEffects
+
+    base = model.base if isinstance(model, WithEffects) else model
+    for cls, name in ((jaxfric.TwoState, "two-state"), (jaxfric.GMS, "gms"),
+                      (jaxfric.LuGre, "lugre"), (jaxfric.Tustin, "tustin")):
+        if isinstance(base, cls):
+            return name
+    return type(base).__name__
+
+
+def chosen_kind(args, model=None) -> str:
+    """The model kind of a command: `model`'s (from ``--params``) when given, which an
+    explicit ``--model`` must agree with; else ``--model``, else `DEFAULT_MODEL`.
+    `DataError` when they disagree."""
+    asked = MODEL_NAMES[args.model] if getattr(args, "model", None) else None
+    if model is None:
+        return asked or DEFAULT_MODEL
+    held = model_kind(model)
+    if asked is not None and asked != held:
+        raise _data.DataError(
+            f"--model {args.model}: {args.params} holds a {type(model).__name__} model "
+            f"({held}); leave out --model to use it, or --params to start a {asked} model "
+            "from the data")
+    return held
 
 def param_units(res, kind: str = _units.LINEAR) -> dict[str, str]:
     """``{name: SI unit}`` of a fit result's parameters, as declared on the model's fields,
@@ -42,6 +74,18 @@ def check_options(args) -> None:
     if window is not None and not (math.isfinite(window) and window > 0):
         raise _data.DataError(f"--velocity-window {window}: must be a finite time > 0 "
                               "(seconds)")
+
+
+@contextlib.contextmanager
+def about(source):
+    """Within it, a `DataError` the library raises on the arrays of a file (a start value it
+    cannot estimate, a derived velocity it refuses) names the file `source` first."""
+    try:
+        yield
+    except _data.DataError as e:
+        if str(e).startswith(str(source)):
+            raise
+        raise _data.DataError(f"{source}: {e}") from None
 
 
 def cli_kind(args) -> str | None:
@@ -100,9 +144,11 @@ def data_units(kind: str) -> dict[str, str]:
 
 
 def result_json(kind: str, res, m) -> dict:
+    """The JSON of a fit: ``"model"`` is the kind of the model fitted (`model_kind` of
+    ``res.model``), whatever the caller's `kind` says."""
     units = param_units(res, m.kind)
     return {
-        "model": kind,
+        "model": model_kind(res.model),
         "kind": m.kind,
         "data_units": data_units(m.kind),
         "file": str(m.source),

@@ -2,7 +2,10 @@
 not at all.
 
 `check_file` and `check_folder` run before a command does any fitting, so a wrong path
-fails in a second with one line instead of after a minute of work. `atomic_file` writes
+fails in a second with one line instead of after a minute of work. `check_clashes` refuses,
+before any work too, an output that would replace one of the command's inputs (the same
+file by resolved path or by inode, a hard or symbolic link included, or an input a report
+folder would write over) or another of its outputs. `atomic_file` writes
 through a private temporary file in the target's folder (created with O_EXCL by
 `tempfile.mkstemp`, so it never follows a planted symlink or overwrites someone else's
 file), flushes and fsyncs it, and renames it over the target; on any exit before that,
@@ -13,6 +16,7 @@ made is removed again if the work does not finish. They live in `jaxfric._atomic
 the library's own writers use too.
 """
 
+import fnmatch
 import json
 import math
 import os
@@ -49,6 +53,10 @@ def check_folder(path, option: str) -> Path:
 def _check_file(target: Path, option: str) -> Path:
     if target.is_dir():
         raise DataError(f"{option} {target}: is a folder; give a file name")
+    if target.exists() and not target.is_file():
+        # a device (/dev/null), FIFO or socket: the atomic rename would replace it
+        raise DataError(f"{option} {target}: is not a regular file (a device, FIFO or "
+                        "socket); give a file name")
     folder = target.parent
     if not folder.is_dir():
         raise DataError(f"{option} {target}: the folder {folder} does not exist")
@@ -68,6 +76,58 @@ def _check_folder(folder: Path, option: str) -> Path:
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise DataError(f"{option} {folder}: cannot write in {existing} (permission denied)")
     return folder
+
+
+def _same(a: Path, b: Path) -> bool:
+    """`a` and `b` are one file: the same resolved path, or the same inode (a hard link)."""
+    try:
+        if a.exists() and b.exists() and os.path.samefile(a, b):
+            return True
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def _hits(out: Path, patterns: tuple, other: Path) -> str | None:
+    """What output `out` writes over `other`: ``"itself"`` for a file output, the name
+    pattern for a folder writing `patterns` (with ``/`` for a subfolder, such as
+    ``joint_*/report.html``), or ``None``."""
+    if not patterns:
+        return "itself" if _same(out, other) else None
+    for pattern in patterns:
+        parts = pattern.split("/")
+        if len(other.parents) < len(parts):
+            continue
+        tail = other.parts[-len(parts):]
+        if (len(tail) == len(parts) and all(fnmatch.fnmatch(n, p) for n, p in zip(tail, parts))
+                and _same(out, other.parents[len(parts) - 1])):
+            return pattern
+    return None
+
+
+def check_clashes(inputs, outputs) -> None:
+    """No output replaces an input or another output. `inputs`: ``[(option, path)]``;
+    `outputs`: ``[(option, path, patterns)]``, `patterns` empty for a file, else the names
+    (glob patterns) a folder output writes into its folder. Raises `DataError` naming both."""
+    outs = [(o, Path(p), pats) for o, p, pats in outputs if p]
+    for option, out, pats in outs:
+        for what, source in inputs:
+            hit = _hits(out, pats, Path(source)) if source else None
+            if hit:
+                where = "" if hit == "itself" else f" (it writes {hit} there)"
+                raise DataError(f"{option} {out}{where} would overwrite the input {what} "
+                                f"{source}; write the output elsewhere")
+    for i, (option, out, pats) in enumerate(outs):
+        for other_option, other, other_pats in outs[i + 1:]:
+            if pats and not other_pats and _hits(out, pats, other):
+                raise DataError(f"{other_option} {other} is a file that {option} {out} "
+                                "writes too: give each output its own path")
+            if other_pats and not pats and _hits(other, other_pats, out):
+                raise DataError(f"{option} {out} is a file that {other_option} {other} "
+                                "writes too: give each output its own path")
+            if _same(out, other):
+                raise DataError(f"{option} {out} and {other_option} {other} are the same "
+                                "output: give each its own path")
 
 
 def _finite_or_null(obj):

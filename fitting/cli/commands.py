@@ -16,6 +16,8 @@ from .._fit import fit as _fit
 from .._search_copy import SEARCH_SAMPLES
 from .._start import initial_model
 from ._io import (
+    about,
+    chosen_kind,
     cli_kind,
     describe,
     diagnosis_json,
@@ -53,9 +55,18 @@ def _progress(log, scale: float, unit: str):
     return show
 
 
+def _kind_of_command(args) -> str:
+    """The model a command fits or simulates: the one of ``--params`` (an explicit
+    ``--model`` must agree), else ``--model`` (`chosen_kind`)."""
+    if not getattr(args, "params", None):
+        return chosen_kind(args)
+    asked = MODEL_NAMES[args.model] if args.model else "two-state"
+    return chosen_kind(args, model_from_json(args.params, asked)[0])
+
+
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    kind = MODEL_NAMES[args.model]
+    kind = _kind_of_command(args)
     if _data.joint_layout(args.file):
         from .joints import fit_joints
 
@@ -88,7 +99,8 @@ def fit_measurement(args, kind: str, m, log):
         start, what = model_from_json(args.params, kind)
         log(f"starting from {what}")
     else:
-        start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
+        with about(m.source):
+            start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
     log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
     t0 = time.perf_counter()
@@ -96,9 +108,10 @@ def fit_measurement(args, kind: str, m, log):
     # The residuals are in units of the force's standard deviation (`fitting._problem`).
     # (`_force_scale`: the standard deviation, or 1 for a constant force.)
     scale = (float(np.std(m.F)) or 1.0) / np.sqrt(m.F.size)
-    res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
-               progress=_progress(log, scale, m.unit("F")) if watched else None,
-               load=_load_of(m, start), a=a)
+    with about(m.source):
+        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
+                   progress=_progress(log, scale, m.unit("F")) if watched else None,
+                   load=_load_of(m, start), a=a)
     elapsed = time.perf_counter() - t0
     # The verdict first: a status name alone ("nonlinear_max_steps_reached") does not say
     # to everyone that the values are not a converged fit.
@@ -148,13 +161,15 @@ def diagnose_measurement(args, kind: str, m, log, report):
         log("note: velocity from a central difference over 10 ms (--velocity-window), "
             "because inertia makes the force depend on its derivative")
     v, a, how = identification_derivatives(m, args, log)
-    start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
+    with about(m.source):
+        start = initial_model(kind, m.t, m.x, force, v, n_elements=args.elements)
     t0 = time.perf_counter()
     if m.load is not None:
         log(f"load: the 'load' column ({m.unit('load')}); load-dependent friction is screened")
-    d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
-                 log=log, rotary=m.kind == _units.ROTARY, load=m.load,
-                 search_samples=getattr(args, "search_samples", SEARCH_SAMPLES), a=a)
+    with about(m.source):
+        d = diagnose(start, m.t, m.x, force, v, max_steps=args.max_steps, model_name=kind,
+                     log=log, rotary=m.kind == _units.ROTARY, load=m.load,
+                     search_samples=getattr(args, "search_samples", SEARCH_SAMPLES), a=a)
     d.velocity, d.derivatives, d.deadband = how, derivatives_json(m, args), deadband
     log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
     if report:
@@ -209,6 +224,11 @@ def model_from_json(path, kind: str):
         spec = json.loads(path.read_text())
     except json.JSONDecodeError as e:
         raise _data.DataError(f"{path}: not valid JSON ({e.msg}, line {e.lineno})") from None
+    except UnicodeDecodeError:
+        raise _data.DataError(f"{path}: not a JSON file (binary data, not UTF-8 text)"
+                              ) from None
+    except OSError as e:
+        raise _data.DataError(f"{path}: cannot be read ({e.strerror or e})") from None
     if not isinstance(spec, dict):
         raise _data.DataError(f"{path}: expected a JSON object (a fit, a diagnosis or a saved "
                               f"model), got a {type(spec).__name__}")
@@ -247,13 +267,16 @@ def run_simulate(args) -> int:
     if _data.joint_layout(args.file):
         from .joints import simulate_joints
 
-        return simulate_joints(args, MODEL_NAMES[args.model], log, model_from_json)
+        return simulate_joints(args, MODEL_NAMES[args.model or "two-state"], log,
+                               model_from_json)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), require_force=False,
                        check_sign=False, kind=cli_kind(args))
     print_warnings(caught, args)
-    kind = MODEL_NAMES[args.model]
+    for note in m.notes:
+        log(f"note: {note}")
+    kind = _kind_of_command(args)
     if args.params:
         model, what = model_from_json(args.params, kind)
         fitted_on = _json_kind(args.params)
@@ -339,8 +362,9 @@ def compare_measurement(args, kinds, m, log) -> dict:
     rows, results = {}, {}
     for kind in kinds:
         log(f"fitting {kind} ...")
-        start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
-        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a)
+        with about(m.source):
+            start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
+            res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a)
         errs = regime_errors(np.asarray(res.residuals), masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
         results[kind] = {**result_json(kind, res, m), "regimes": errs, **extra}

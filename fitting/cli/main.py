@@ -190,9 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_data_options(p)
-    p.add_argument("--model", default="two-state",
-                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
-                   help="model to fit (default: %(default)s)")
+    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model to fit (default: the model of --params, else two-state); "
+                        "with --params it must be that model")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=200, help="solver iteration limit")
     _add_deadband_option(p, "auto; the value used is saved in --json")
@@ -213,9 +213,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--units", action="append", metavar="COL=UNIT",
                    help="units of columns without one in the header, e.g. x=mm")
     _add_kind_options(p)
-    p.add_argument("--model", default="two-state",
-                   choices=["two-state", "two_state", "gms", "lugre", "tustin"],
-                   help="model (default: %(default)s; the paper's values)")
+    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model (default: the model of --params, else two-state with the "
+                        "paper's values); with --params it must be that model")
     p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
     p.add_argument("--stack-size", type=int, metavar="N",
                    help="memory stack slots of a two-state model (default: the model's)")
@@ -308,14 +308,35 @@ _OUTPUTS = {
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
     "export": (("--c", "c_dir", "folder"), ("--mujoco", "mujoco", "file")),
 }
+#: The files a folder output writes into its folder (name patterns), by attribute.
+_FOLDER_FILES = {
+    "report": ("report.html", "diagnosis.json", "*.png", "joint_*/report.html",
+               "joint_*/diagnosis.json", "joint_*/*.png"),  # one folder per joint
+    "c_dir": ("jaxfric_model.h", "jaxfric_model.c"),
+    "out": ("report.html", "diagnosis.json", "summary.json", "example.csv", "*.png"),
+}
+#: The input files of each command: (what, attribute).
+_INPUTS = {
+    "demo": (),
+    "fit": (("FILE", "file"), ("--params", "params")),
+    "simulate": (("FILE", "file"), ("--params", "params")),
+    "compare": (("FILE", "file"),),
+    "diagnose": (("FILE", "file"),),
+    "export": (("RESULT.json", "result"),),
+}
 
 
 def _check_outputs(args) -> None:
-    """Every output path can be written, before any work (`fitting.cli._output`)."""
-    from ._output import check_file, check_folder
+    """Every output path can be written, and replaces neither an input nor another output,
+    before any work (`fitting.cli._output`)."""
+    from ._output import check_clashes, check_file, check_folder
 
+    outputs = []
     for option, attr, kind in _OUTPUTS[args.command]:
         path = getattr(args, attr, None)
         if path:
             (check_file if kind == "file" else check_folder)(path, option)
+            outputs.append((option, path, () if kind == "file" else _FOLDER_FILES[attr]))
+    inputs = [(what, getattr(args, attr, None)) for what, attr in _INPUTS[args.command]]
+    check_clashes(inputs, outputs)
 

@@ -10,6 +10,6 @@ from ._compiled import (
     find_compiler as find_compiler,
 )
 from ._effects_c import EXPORTABLE as EXPORTABLE
-from ._mujoco import mjcf as mjcf, to_mujoco as to_mujoco
+from ._mujoco import approximations as approximations, mjcf as mjcf, to_mujoco as to_mujoco
 from ._parts import ExportError as ExportError
 from .c import c_code as c_code, to_c as to_c

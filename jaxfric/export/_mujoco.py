@@ -44,9 +44,23 @@ def _num(v) -> str:
     return repr(float(v))
 
 
-def mjcf(model, joint: str = "slide", timestep: float = 1e-3) -> str:
+def approximations(model) -> list[str]:
+    """What `mjcf` changes in `model` because MuJoCo cannot represent it (one sentence
+    each; empty when nothing). Raises `ExportError` for what it cannot represent at all."""
+    base, _ = _split(model)
+    delta = float(base.stribeck.delta)
+    if abs(delta - 2.0) > 1e-12:
+        return [f"the fitted Stribeck exponent delta = {delta:.6g} is replaced by MuJoCo's "
+                "fixed exponent 2"]
+    return []
+
+
+def mjcf(model, joint: str = "slide", timestep: float = 1e-3,
+         comment: str | None = None) -> str:
     """The MJCF text for `model` (a `LuGre`, optionally with `viscous` and `cogging`
-    effects) on one `joint` (``"slide"`` or ``"hinge"``), simulated with `timestep` (s).
+    effects) on one `joint` (``"slide"`` or ``"hinge"``), simulated with `timestep` (s);
+    `comment` (lines of text, such as the fit's status and standard errors) is added to
+    its opening comment. What it approximates is said there too (`approximations`).
     Raises `ExportError` for what MuJoCo cannot represent."""
     if joint not in ("slide", "hinge"):
         raise ExportError(f"joint must be 'slide' or 'hinge', got {joint!r}")
@@ -54,11 +68,9 @@ def mjcf(model, joint: str = "slide", timestep: float = 1e-3) -> str:
     st = base.stribeck
     damping = float(base.sigma2) + sum(float(e.c_visc) for e in effects
                                        if isinstance(e, Viscous))
-    notes = []
-    delta = float(st.delta)
-    if abs(delta - 2.0) > 1e-12:
-        notes.append(f"the fitted Stribeck exponent delta = {delta:.6g} is replaced by "
-                     "MuJoCo's fixed exponent 2")
+    notes = approximations(model)
+    extra = "".join(f"\n       {line}" for line in
+                    (comment or "").replace("--", "- -").splitlines())
     attrs = [f'lugre="{_num(base.sigma0)} {_num(base.sigma1)} {_num(st.Fc)} {_num(st.Fs)} '
              f'{_num(st.Vs)}"', f'damping="{_num(damping)}"']
     for e in effects:
@@ -80,7 +92,7 @@ def mjcf(model, joint: str = "slide", timestep: float = 1e-3) -> str:
        viscous damping {_num(damping)} {force} s/{unit} (sigma2 plus the viscous effect).
        {note}.
        The actuator is passive (input="none", motorconst 0: no electrical branch); the joint
-       feels minus jaxfric's friction force (actuator_force + qfrc_damper). -->
+       feels minus jaxfric's friction force (actuator_force + qfrc_damper).{extra} -->
   <option timestep="{_num(timestep)}"/>
   <worldbody>
     <body name="axis">

@@ -65,17 +65,26 @@ def _describe(model) -> str:
     return type(model).__name__
 
 
-def _header(model, parts: list[Part]) -> str:
+def _comment_lines(comment: str | None) -> str:
+    """`comment` as extra lines of the header's opening comment (``*/`` defused)."""
+    if not comment:
+        return ""
+    lines = comment.replace("*/", "* /").splitlines()
+    return "".join(f"\n   {line}" for line in lines)
+
+
+def _header(model, parts: list[Part], comment: str | None = None) -> str:
     fields = [*_COMMON_FIELDS, *(f for p in parts for f in p.fields)]
     body = "\n".join(f"    {f}" if f.startswith("/*") else _field_line(f) for f in fields)
     needs_load = int(isinstance(model, WithEffects) and reads_load(model.effects))
+    extra = _comment_lines(comment)
     plain_decl = "" if needs_load else (
         "\n/* jaxfric_step_load with no load: for a model that does not read it. */\n"
         "double jaxfric_step(jaxfric_state *s, double t, double x, double v);\n")
     return f"""\
 /* jaxfric_model.h: friction model exported by jaxfric ({_describe(model)}).
    Generated code: C99, needs only <math.h>, no allocation, double precision.
-   Units SI: t [s], x [m], v [m/s], force [N] (torque [N m] for a rotary axis). */
+   Units SI: t [s], x [m], v [m/s], force [N] (torque [N m] for a rotary axis).{extra} */
 #ifndef JAXFRIC_MODEL_H
 #define JAXFRIC_MODEL_H
 
@@ -160,14 +169,15 @@ double jaxfric_step_load(jaxfric_state *s, double t, double x, double v, double 
 {plain}"""
 
 
-def c_code(model) -> tuple[str, str]:
+def c_code(model, comment: str | None = None) -> tuple[str, str]:
     """The text of ``jaxfric_model.h`` and ``jaxfric_model.c`` for `model` (any
     `TwoState`, `GMS`, `LuGre` or `Tustin`, with the exportable effects of
-    `jaxfric.effects`). Raises `ExportError` (a `ValueError`) naming what cannot be
-    exported."""
+    `jaxfric.effects`); `comment` (lines of text, such as the fit's status and standard
+    errors) is added to the header's opening comment. Raises `ExportError` (a
+    `ValueError`) naming what cannot be exported."""
     _, parts = _parts(model)
     needs_load = isinstance(model, WithEffects) and reads_load(model.effects)
-    return _header(model, parts), _source(parts, needs_load)
+    return _header(model, parts, comment), _source(parts, needs_load)
 
 
 def to_c(model, directory) -> tuple[Path, Path]:
