@@ -63,33 +63,3 @@ def test_user_docs_carry_no_issue_numbers_or_commit_hashes(path):
     hashes = [h for h in re.findall(r"\b[0-9a-f]{7,40}\b", prose) if re.search(r"[a-f]", h)
               and re.search(r"\d", h)]
     assert not hashes, f"{path.name}: {hashes}"
-
-
-def test_the_closest_call_counts_quoted_come_from_their_script():
-    """docs/diagnosis.md and `fitting._diagnose._closest_call` quote
-    `benchmarks/closest_calls.py`: on the run before the rule (old.json in the docs), of the
-    eight files where an offset and an asymmetry were both refitted, the higher score
-    named the hidden effect in all eight, the screen t in four, the held-out error in six;
-    on the committed run, of ten files, in all ten, six and eight."""
-    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "closest_calls.py")],
-                         capture_output=True, text=True, timeout=120, cwd=ROOT)
-    assert run.returncode == 0, run.stderr
-    assert "right, of 10 files: score 10, t 6, held-out error 8" in run.stdout, run.stdout
-    doc = " ".join((ROOT / "docs" / "diagnosis.md").read_text().split())
-    assert "eight files" in doc and "in all eight" in doc
-    assert "of ten files: the higher score in all ten, ``t`` in six, the held-out error " \
-        "in eight" in doc
-
-
-def test_the_fold_check_counts_quoted_come_from_their_script():
-    """docs/diagnosis.md quotes `benchmarks/fold_checks.py` on the committed bench runs:
-    which refits went to the three folds, and what was added."""
-    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fold_checks.py")],
-                         capture_output=True, text=True, timeout=120, cwd=ROOT)
-    assert run.returncode == 0, run.stderr
-    assert ("95 refits went to the three folds: hidden: 25 added, 0 rejected; not hidden: 7 "
-            "added, 60 rejected; mixed: 2 added, 1 rejected") in run.stdout, run.stdout
-    doc = " ".join((ROOT / "docs" / "diagnosis.md").read_text().split())
-    assert ("95 refits went to the three folds (41 before the check was asked for from 10 %): "
-            "the 25 of hidden effects were all added; of the 67 of effects not hidden, 60 were "
-            "rejected and 7 added") in doc
