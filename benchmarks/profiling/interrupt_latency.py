@@ -1,4 +1,4 @@
-"""How fast does Ctrl-C stop ``jaxfric fit``, and how? (issue 21, item 3)
+"""How fast does Ctrl-C stop ``jaxfric fit``, and how?
 
 Writes a measurement of `--n` samples (the `jaxfric.examples.excitation` motion repeated,
 the paper's two-state model, 0.05 N of noise), then, for each delay, starts
