@@ -37,8 +37,8 @@ runs nothing: it summarises earlier runs' rows into ``--summary`` (a file in a l
 replaces the same file in an earlier one).
 
 The default run (3 truths x 2 noise levels x 2 sampling intervals x 16 files) takes about
-3 hours on two cores with ``--jobs 2``; ``--quick`` runs one truth, noise level and
-interval (16 files, about 15 minutes). To add a truth, an effect or a pair, add it to
+3 hours on the 2-core machine; ``--quick`` runs one truth, noise level and interval (16
+files, 10 to 15 minutes). To add a truth, an effect or a pair, add it to
 `jaxfric.synthetic` or to the constants below; keyword arguments of `measurement` for a
 new kind of file go in a case's ``"options"`` (they are part of its corner).
 """

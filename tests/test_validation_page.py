@@ -74,3 +74,15 @@ def test_check_mode_fails_on_a_stale_page(tmp_path):
     run = subprocess.run([sys.executable, str(script), "--check", "--out", str(stale)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout
+
+
+def test_a_json_of_another_layout_is_said_unreadable(tmp_path):
+    root = _copy(tmp_path)
+    (root / SOURCES["montecarlo"]).write_text(json.dumps({"rows": [{"case": "x"}]}))
+    page = render(root)
+    assert "## Monte-Carlo\n\nCannot read `benchmarks/montecarlo_speed.json`: KeyError" in page
+    # A script that judges its own goals is shown as it judged them.
+    (root / SOURCES["montecarlo"]).write_text(json.dumps({"goals": [
+        {"goal": "batch >= 2x Numba", "measured": 2.5, "target": 2.0, "unit": "x",
+         "status": "PASS"}], "rows": []}))
+    assert "| batch >= 2x Numba | 2.5x | 2x | met |" in render(root)
