@@ -25,8 +25,10 @@ import json
 import os
 import platform
 import statistics
+import sys
 import tempfile
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 import jax
@@ -180,11 +182,16 @@ def main(argv=None) -> int:
           f"(target: C <= {TARGET_NS:.0f} ns/step)")
     print(table(rows))
     print("\nas Markdown (docs/using_a_model.md):\n" + markdown(rows))
+    sys.path.insert(0, str(HERE.parent))
+    from benchmarks.machine import machine_facts
+
     meta = {"n": args.n, "repeats": args.repeats, "cc_flags": "-O2 -std=c99",
             "platform": platform.platform(), "python": platform.python_version(),
             "jax": jax.__version__, "cores": os.cpu_count(),
             "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-            "target_ns": TARGET_NS}
+            "target_ns": TARGET_NS,
+            "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"),
+            "cpu": machine_facts()["cpu"]}
     Path(args.json).write_text(json.dumps({"meta": meta, "rows": rows}, indent=1) + "\n")
     print(f"wrote {args.json}")
     return 0

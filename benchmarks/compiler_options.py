@@ -30,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -149,8 +150,9 @@ def main(argv=None) -> None:
     from benchmarks.machine import machine_facts
 
     Path(args.json).write_text(json.dumps(
-        {"machine": machine_facts(), "n": n, "rounds": args.rounds, "options": options,
-         "rows": table}, indent=1))
+        {"machine": machine_facts(),
+         "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"), "n": n,
+         "rounds": args.rounds, "options": options, "rows": table}, indent=1))
     print(f"wrote {args.json}")
 
 

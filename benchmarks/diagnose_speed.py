@@ -1,5 +1,5 @@
-"""Wall time of ``jaxfric diagnose`` as a user runs it (issue 22, item 5: 1e5 samples in
-at most 60 s on the 2-core machine).
+"""Wall time of ``jaxfric diagnose`` as a user runs it (goal: 1e5 samples in at most 60 s
+on the 2-core machine).
 
 Each file is a foreign-truth measurement (`jaxfric.synthetic.measurement`: a two-state
 model with a power-law presliding curve, one hidden cogging, a 0.05 um encoder, 0.03 N of
@@ -22,13 +22,13 @@ Prints a table and writes JSON (default benchmarks/diagnose_speed.json).
 import argparse
 import json
 import os
-import platform
 import re
 import resource
 import subprocess
 import sys
 import tempfile
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -124,8 +124,12 @@ def main(argv=None) -> int:
         print("\ngoal: 1e5 samples in <= 60 s (median): " + ", ".join(
             f"cache {r['cache']} {r['wall_s']:.0f} s "
             f"({'met' if r['wall_s'] <= GOAL_S else 'MISSED'})" for r in big))
-    out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
-                       "python": sys.version.split()[0]},
+    sys.path.insert(0, str(HERE.parent))
+    from benchmarks.machine import machine_facts
+
+    out = {"machine": machine_facts(),
+           "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"),
+           "command": "python benchmarks/diagnose_speed.py " + " ".join(argv or sys.argv[1:]),
            "goal_s_at_1e5": GOAL_S, "repeats": args.repeats, "rows": rows, "runs": runs}
     Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     print(f"wrote {args.json}")

@@ -1,54 +1,58 @@
 """Diagnosis bench: does `jaxfric diagnose` name the missing effect on data it did not make?
 
-    python benchmarks/diagnosis_bench.py [--quick] [--jobs 2] [--json OUT.json]
+    python benchmarks/diagnosis_bench.py [--quick] [--jobs 2] [--out ROWS.json]
 
-Every file is made the way a measurement would be, from truths that are NOT the model being
-fitted (a two-state model with the paper's presliding shape):
+Every file is made the way a measurement would be (`jaxfric.synthetic.measurement`), from
+truths that are NOT the model being fitted (a two-state model with the paper's presliding
+shape):
 
-- **truths**: a 60-element GMS whose virgin curve is another family (a power law,
-  ``1 - (1 - u)**2.5``) with its own Stribeck curve (``gms_power``); a LuGre model with
-  stiff bristles (``lugre``); a two-state model with a `PowerShape` presliding curve
-  (``two_state_power``);
+- **truths**: a 60-element GMS whose virgin curve is another family (a power law) with its
+  own Stribeck curve (``gms_power``); a LuGre model with stiff bristles (``lugre``); a
+  two-state model with a `PowerShape` presliding curve (``two_state_power``);
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
-  and the hidden effects are computed there, from the fine grid's own central-difference
-  velocity and acceleration, with formulas written in `jaxfric.synthetic` (not
-  `jaxfric.effects`);
-- **sensors**: the position is sampled and quantised to a 0.05 um encoder; the force gets
-  white noise (two levels); two sampling intervals; the file holds t, x, F only, so the
-  diagnosis derives the velocity itself;
-- **hidden effects**: one at a time (regime-confined ones included: a drag that matters
-  only at high speed, an asymmetry in one direction only, an acceleration (mass) term,
-  a two-harmonic position ripple, a warm-up drift, an offset, a friction level that
-  changes along the travel, a spring-like load along the travel, a Stribeck hump, a
-  friction lag), pairs, and clean files.
+  and the hidden effects are computed there, with formulas written in `jaxfric.synthetic`
+  (not `jaxfric.effects`);
+- **sensors**: the position is quantised to a 0.05 um encoder, the force gets white noise;
+  the file holds t, x, F only, so the diagnosis derives the velocity itself;
+- **hidden effects**: none (a clean file), each of `SINGLES` alone, and the `PAIRS`.
 
-For each file the bench records which effect the diagnosis added first and all it added,
-and the RMSE before and after. The summary prints a confusion table (hidden -> named
-first), the share of single-effect files whose effect was named first, of pairs with both
-found, the number of effects added on clean files, and the share of the excess error over
-the same file without its hidden effects (same motion and noise) removed when the effect
-was found (targets: >= 90 %, >= 80 %, 0, >= 50 %). A hidden effect that raises the
-baseline's held-out error by less than 10 % over that clean twin is marked "absorbed" (the
-base model's own viscous term or lag took it up; little is left to find), and the share
-named first is also given without those files (and the share of pairs with both found
-without the pairs holding an effect absorbed in its own single file).
-JSON with every file's outcome goes to ``benchmarks/diagnosis_bench.json`` (or --json);
-``--update JSON`` re-runs only the files selected (``--only``, ``--truths``) into an
-earlier run, for a change that can only affect those (its ``"rerun"`` lists them).
-The full bench (3 truths x 2 noise levels x 2 rates x 16 files) takes hours on two cores;
-``--quick`` runs one truth, one noise level and one rate (16 files). The files are made by
-`jaxfric.synthetic.measurement`. ``--start gms`` (or lugre, tustin) diagnoses from another
-model than the two-state one (`fitting.initial_model`): do the effects found depend on it?
-(Each row then says ``"start"``.)
+A *corner* is one sampling interval, noise level and starting model; each corner has one
+file per truth and hidden effect(s). For each file the bench records what the diagnosis
+added (in order) and the held-out RMSE before and after, and the same baseline's held-out
+RMSE on the file's clean twin (same motion and noise, nothing hidden). Targets: a single
+hidden effect named first in >= 90 % of files, both effects of a pair found in >= 80 %,
+nothing added on clean files, and at least half the excess error over the clean twin
+removed on every file where the effect was found. A hidden effect that raises the
+baseline's held-out error by less than `ABSORBED` over the clean twin is counted as
+*absorbed* by the base model (little is left to find); the shares are also given without
+those files.
+
+A run writes every file's row (what was added, the rankings, every refit tried, the
+diagnosis summary) to ``--out`` (default: in the system's temporary folder, not the
+repository), and a summary of counts per corner (`summary`) to ``--summary`` (default
+``benchmarks/diagnosis_bench.json``, the file docs/validation.md is generated from): the
+corners the run covered replace theirs there, the others are kept. A ``--quick`` or
+``--only`` run writes its summary next to ``--out`` instead. ``--summarise ROWS.json ...``
+runs nothing: it summarises earlier runs' rows into ``--summary`` (a file in a later run
+replaces the same file in an earlier one).
+
+The default run (3 truths x 2 noise levels x 2 sampling intervals x 16 files) takes about
+3 hours on the 2-core machine; ``--quick`` runs one truth, noise level and interval (16
+files, 10 to 15 minutes). To add a truth, an effect or a pair, add it to
+`jaxfric.synthetic` or to the constants below; keyword arguments of `measurement` for a
+new kind of file go in a case's ``"options"`` (they are part of its corner).
 """
+
+from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
+import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -57,22 +61,47 @@ from jaxfric.synthetic import HIDDEN, measurement, TRUTHS
 
 
 HERE = Path(__file__).resolve().parent
+SUMMARY = HERE / "diagnosis_bench.json"
 SINGLES = HIDDEN
-#: The first three kinds of pair, then two added so that every hidden effect is in one
-#: (their seeds follow: the files of the first three are unchanged).
+#: Pairs of hidden effects; every effect is in one. A new pair goes at the end: a file's
+#: motion and noise are seeded by its place in the list (`cases`).
 PAIRS = (("asymmetry", "position_dependence"), ("inertia", "cogging"),
          ("quadratic_drag", "drift"), ("stribeck", "position_load"),
          ("friction_lag", "offset"))
 NOISES = (0.03, 0.08)  # N
 RATES = (1e-2, 5e-3)  # s
+STARTS = ("two-state", "gms", "lugre", "tustin")
+#: A hidden effect whose baseline held-out RMSE exceeds the clean twin's by less than this
+#: fraction is counted as absorbed by the base model (`clean_holdout`).
+ABSORBED = 0.1
+TARGETS = {"singles": 0.9, "pairs": 0.8}
+
+
+def cases(quick: bool = False, truths=None, rates=None, noises=None, start="two-state",
+          options: dict | None = None) -> list[dict]:
+    """One case per file: every truth x noise x rate x (clean, singles, pairs); the seed
+    is the hidden effects' place in that list, so the same effects get the same motion and
+    noise in every corner."""
+    truths = truths or (TRUTHS[:1] if quick else TRUTHS)
+    rates = rates or (RATES[:1] if quick else RATES)
+    noises = noises or (NOISES[:1] if quick else NOISES)
+    hidden = [()] + [(h,) for h in SINGLES] + list(PAIRS)
+    return [{"truth": truth, "noise": noise, "dt": dt, "hidden": list(h), "seed": k,
+             "start": start, **({"options": options} if options else {})}
+            for truth in truths for noise in noises for dt in rates
+            for k, h in enumerate(hidden)]
+
+
+def _measure(case: dict, hidden) -> tuple:
+    return measurement(case["truth"], tuple(hidden), case["noise"], case["dt"], case["seed"],
+                       **case.get("options", {}))
 
 
 def run_case(case: dict) -> dict:
     import fitting
 
     t0 = time.perf_counter()
-    t, x, F = measurement(case["truth"], tuple(case["hidden"]), case["noise"], case["dt"],
-                          case["seed"])
+    t, x, F = _measure(case, case["hidden"])
     kind = case.get("start", "two-state")
     start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
     d = fitting.diagnose(start, t, x, F, model_name=kind)
@@ -93,26 +122,18 @@ def run_case(case: dict) -> dict:
 
 
 def clean_holdout(case: dict, start, holdout) -> float:
-    """Held-out RMSE (N) of the baseline model fitted to the same file without its hidden
-    effects (same motion, encoder and noise: `measurement` seeds them by file), on the
-    diagnosis's training/held-out split: the error the baseline would have if nothing were
-    missing. A hidden effect that raises the baseline's held-out error by less than
-    `ABSORBED` of this is absorbed by the base model's own parameters (a drag by the
-    viscous term, a friction lag by the lag state): there is then little left to find."""
+    """Held-out RMSE (N) of the baseline model fitted to the file's clean twin (same
+    motion, encoder and noise: `measurement` seeds them by file), on the diagnosis's
+    training/held-out split: the error the baseline would have if nothing were missing."""
     import fitting
 
     if not case["hidden"]:
         return float("nan")
-    t, x, F = measurement(case["truth"], (), case["noise"], case["dt"], case["seed"])
+    t, x, F = _measure(case, ())
     v = fitting.estimate_velocity(t, x)
     res = fitting.fit(start, t, x, F, v, weights=(~holdout).astype(float), max_steps=300)
     err = np.asarray(res.prediction) - F
     return float(np.sqrt(np.mean(err[holdout] ** 2)))
-
-
-#: A hidden effect whose baseline held-out RMSE exceeds the clean file's by less than this
-#: fraction is counted as absorbed by the base model (`clean_holdout`).
-ABSORBED = 0.1
 
 
 def absorbed(row: dict) -> bool:
@@ -120,343 +141,195 @@ def absorbed(row: dict) -> bool:
     return bool(row["hidden"]) and row["rmse_holdout_before"] < (1 + ABSORBED) * clean
 
 
-def cases(quick: bool, truths=None, rates=None, noises=None, start="two-state"
-          ) -> list[dict]:
-    truths = truths or (TRUTHS[:1] if quick else TRUTHS)
-    rates = rates or (RATES[:1] if quick else RATES)
-    noises = noises or (NOISES[:1] if quick else NOISES)
-    hidden = [()] + [(h,) for h in SINGLES] + list(PAIRS)
-    out = []
-    for truth in truths:
-        for noise in noises:
-            for dt in rates:
-                for k, h in enumerate(hidden):
-                    out.append({"truth": truth, "noise": noise, "dt": dt, "hidden": list(h),
-                                "seed": k, **({} if start == "two-state" else
-                                              {"start": start})})
-    return out
+def found(row: dict) -> bool:
+    """A single effect named first, both effects of a pair added."""
+    if len(row["hidden"]) == 1:
+        return row["first"] == row["hidden"][0]
+    return set(row["hidden"]) <= set(row["added"])
 
 
-def wrong_refits(rows: list[dict]) -> list[dict]:
-    """Every joint refit (`fitting.Diagnosis.trials`) of an effect that was not hidden in
-    its file, with the file's hidden effects: the null evidence the significance rule must
-    reject (on a clean file all refits are of this kind)."""
-    return [{**tr, "hidden": r["hidden"]} for r in rows for tr in r.get("trials", ())
-            if not set(tr["effects"]) <= set(r["hidden"])]
+def file_key(row: dict) -> tuple:
+    return (row["truth"], tuple(row["hidden"])) + corner_key(row)
 
 
-def _null_summary(rows: list[dict]) -> dict:
-    """The largest held-out share removed by a refit of an effect not hidden, on clean
-    files and on any file, and how many such refits the rule let through."""
-    wrong = wrong_refits(rows)
-    clean = [w for w in wrong if not w["hidden"]]
-    return {
-        "wrong_refits": len(wrong),
-        "wrong_refits_added": sum(w["added"] for w in wrong),
-        "largest_share_removed_by_wrong_refit_clean": max(
-            (w["removed"] for w in clean), default=None),
-        "largest_share_removed_by_wrong_refit": max((w["removed"] for w in wrong),
-                                                    default=None),
-    }
+def corner_key(row: dict) -> tuple:
+    return (row["dt"], row["noise"], row.get("start", "two-state"),
+            json.dumps(row.get("options", {}), sort_keys=True))
 
 
-def _groups(rows: list[dict]):
-    """``(singles, pairs, left, findable)``: the single-effect and pair files, the singles
-    not absorbed, and the pairs without an effect its base model absorbs alone (same truth,
-    noise and rate): those have only one effect to find."""
+def counts(rows: list[dict]) -> dict:
+    """The targets' numerators and denominators (``[found, files]``) for `rows`."""
     singles = [r for r in rows if len(r["hidden"]) == 1]
     pairs = [r for r in rows if len(r["hidden"]) == 2]
+    clean = [r for r in rows if not r["hidden"]]
+    gone = {(r["truth"],) + corner_key(r) + (r["hidden"][0],) for r in singles if absorbed(r)}
     left = [r for r in singles if not absorbed(r)]
-    gone = {(r["truth"], r["noise"], r["dt"], r["hidden"][0]) for r in singles if absorbed(r)}
-    findable = [r for r in pairs
-                if not any((r["truth"], r["noise"], r["dt"], h) in gone for h in r["hidden"])]
-    return singles, pairs, left, findable
-
-
-def summarise(rows: list[dict]) -> dict:
-    clean = {(r["truth"], r["noise"], r["dt"]): r for r in rows if not r["hidden"]}
-    singles, pairs, left, findable = _groups(rows)
-    right = [r for r in singles if r["first"] == r["hidden"][0]]
-    both = [r for r in pairs if set(r["hidden"]) <= set(r["added"])]
+    findable = [r for r in pairs if not any(
+        (r["truth"],) + corner_key(r) + (h,) in gone for h in r["hidden"])]
     removed = []
-    for r in right + both:
-        # The excess over the same file without its hidden effects (same motion and noise).
+    for r in singles + pairs:
         excess = r["rmse_holdout_before"] - r["rmse_holdout_clean"]
-        if excess > 0:
+        if found(r) and excess > 0:
             removed.append((r["rmse_holdout_before"] - r["rmse_holdout_after"]) / excess)
-    return {
-        "single_right_first": len(right) / max(len(singles), 1),
-        "singles": len(singles),
-        "singles_absorbed_by_base": [r["hidden"][0] for r in singles if absorbed(r)],
-        "single_right_first_not_absorbed": (
-            sum(r["first"] == r["hidden"][0] for r in left) / max(len(left), 1)),
-        "pairs_both_found": len(both) / max(len(pairs), 1),
-        "pairs": len(pairs),
-        "pairs_both_found_not_absorbed": (
-            sum(set(r["hidden"]) <= set(r["added"]) for r in findable)
-            / max(len(findable), 1)),
-        "pairs_not_absorbed": len(findable),
-        "clean_files": len(clean),
-        "effects_added_on_clean": sum(len(r["added"]) for r in clean.values()),
-        "median_excess_removed_when_found": float(np.median(removed)) if removed else None,
-        "found_with_half_excess_removed": (float(np.mean(np.asarray(removed) >= 0.5))
-                                           if removed else None),
-        **_null_summary(rows),
-    }
+
+    def share(sel):
+        return [sum(found(r) for r in sel), len(sel)]
+
+    return {"singles": share(singles), "singles_not_absorbed": share(left),
+            "pairs": share(pairs), "pairs_not_absorbed": share(findable),
+            "clean_files": len(clean), "added_on_clean": sum(len(r["added"]) for r in clean),
+            "not_hidden_added": sum(len(set(r["added"]) - set(r["hidden"])) for r in rows),
+            "found_half_excess_removed": [sum(s >= 0.5 for s in removed), len(removed)],
+            "median_excess_removed": float(np.median(removed)) if removed else None}
 
 
-def print_table(rows: list[dict], summary: dict) -> None:
-    print(f"\n{'truth':<16} {'noise':>5} {'dt':>6}  {'hidden':<34} {'added (in order)':<40} "
-          f"{'RMSE before -> after (held out), N':>34}")
-    for r in rows:
-        hidden = " + ".join(r["hidden"]) or "(clean)"
-        added = " + ".join(r["added"]) or "-"
-        if len(r["hidden"]) == 2:
-            ok = "ok" if set(r["hidden"]) <= set(r["added"]) else "MISS"
-        else:
-            ok = ("ok" if (r["hidden"] and r["first"] in r["hidden"]) or
-                  (not r["hidden"] and not r["added"]) else "MISS")
-        if absorbed(r):
-            ok += f" (absorbed: clean {r['rmse_holdout_clean']:.4f})"
-        print(f"{r['truth']:<16} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  {hidden:<34} "
-              f"{added:<40} {r['rmse_holdout_before']:>10.4f} -> {r['rmse_holdout_after']:.4f}"
-              f"  {ok}")
-    names = sorted({h for r in rows for h in r["hidden"]})
-    print("\nconfusion (single hidden effect -> first named), counts:")
-    named = sorted({r["first"] or "-" for r in rows if len(r["hidden"]) == 1})
-    print(f"{'hidden':<22}" + "".join(f"{n[:10]:>11}" for n in named))
-    for h in names:
+def summarise_corner(rows: list[dict]) -> dict:
+    """A corner's summary: its counts, over all and per truth, and per hidden effect (single
+    files): how many, named first, absorbed, and what was named first instead."""
+    r0 = rows[0]
+    by_effect = {}
+    for h in dict.fromkeys(h for r in rows if len(r["hidden"]) == 1 for h in r["hidden"]):
         sel = [r for r in rows if r["hidden"] == [h]]
-        if sel:
-            print(f"{h:<22}" + "".join(
-                f"{sum((r['first'] or '-') == n for r in sel):>11}" for n in named))
-    wrong = wrong_refits(rows)
-    if wrong:
-        print("\nrefits of effects not hidden in their file (what the rule must reject):")
-        for w in sorted(wrong, key=lambda w: -w["removed"]):
-            t = "inf" if w["t"] is None else f"{w['t']:.1f}"
-            print(f"  {' + '.join(w['hidden']) or '(clean)':<34} {' + '.join(w['effects']):<34}"
-                  f" removed {100 * w['removed']:6.1f} %  t {t:>5}"
-                  f"  {'ADDED' if w['added'] else 'rejected'}")
-    print("\nsummary:")
-    for k, v in summary.items():
-        print(f"  {k:<36} {v if not isinstance(v, float) else round(v, 3)}")
-
-
-def _verdict(r: dict) -> str:
-    if len(r["hidden"]) == 2:
-        found = [h for h in r["hidden"] if h in r["added"]]
-        ok = "ok" if len(found) == 2 else f"**miss** ({len(found)} of 2)"
-    elif r["hidden"]:
-        ok = "ok" if r["first"] == r["hidden"][0] else "**miss**"
-    else:
-        ok = "ok" if not r["added"] else "**miss**"
-    return ok + (" (absorbed)" if absorbed(r) else "")
-
-
-def markdown(rows: list[dict]) -> str:
-    """The per-file table as Markdown, for docs/diagnosis.md."""
-    lines = ["| truth | noise [N] | dt [ms] | hidden | named (in order) | held-out RMSE "
-             "before -> after [N] | clean twin [N] | |", "|---|---|---|---|---|---|---|---|"]
+        instead = [r["first"] or "nothing" for r in sel if not found(r)]
+        by_effect[h] = {"files": len(sel), "named_first": sum(map(found, sel)),
+                        "absorbed": sum(map(absorbed, sel)),
+                        "instead": {n: instead.count(n) for n in sorted(set(instead))}}
+    by_pair = {}
     for r in rows:
-        clean = r.get("rmse_holdout_clean", float("nan"))
-        lines.append(
-            f"| {r['truth']} | {r['noise']:g} | {r['dt'] * 1e3:g} | "
-            f"{' + '.join(r['hidden']) or '(clean)'} | {', '.join(r['added']) or 'nothing'} | "
-            f"{r['rmse_holdout_before']:.3f} -> {r['rmse_holdout_after']:.3f} | "
-            f"{'' if np.isnan(clean) else f'{clean:.3f}'} | {_verdict(r)} |")
-    return "\n".join(lines)
-
-
-def markdown_by_truth(rows: list[dict]) -> str:
-    """One row per hidden effect(s), one column per truth: what was named (in order), and
-    the held-out RMSE before -> after; for docs/diagnosis.md."""
+        if len(r["hidden"]) == 2:
+            p = by_pair.setdefault(" + ".join(r["hidden"]), {"files": 0, "both_found": 0})
+            p["files"] += 1
+            p["both_found"] += found(r)
     truths = list(dict.fromkeys(r["truth"] for r in rows))
-    keys = list(dict.fromkeys(tuple(r["hidden"]) for r in rows))
-    lines = ["| hidden | " + " | ".join(truths) + " |", "|---" * (len(truths) + 1) + "|"]
-    for key in keys:
-        cells = []
-        for truth in truths:
-            r = next((r for r in rows if r["truth"] == truth and tuple(r["hidden"]) == key),
-                     None)
-            cells.append("" if r is None else
-                         f"{', '.join(r['added']) or 'nothing'} "
-                         f"({r['rmse_holdout_before']:.3f} -> {r['rmse_holdout_after']:.3f}) "
-                         f"{_verdict(r)}")
-        lines.append(f"| {' + '.join(key) or '(clean)'} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return {"dt_s": r0["dt"], "noise_N": r0["noise"], "start": r0.get("start", "two-state"),
+            **({"options": r0["options"]} if r0.get("options") else {}),
+            "truths": truths, "files": len(rows), **counts(rows),
+            "by_truth": {t: counts([r for r in rows if r["truth"] == t]) for t in truths},
+            "by_effect": by_effect, "by_pair": by_pair}
 
 
-def _counts(rows: list[dict]) -> dict:
-    """The targets' numerators and denominators (as `summarise`, in counts)."""
-    singles, pairs, left, findable = _groups(rows)
-    s = summarise(rows)
-    return {
-        "singles": (sum(r["first"] == r["hidden"][0] for r in singles), len(singles)),
-        "singles_left": (sum(r["first"] == r["hidden"][0] for r in left), len(left)),
-        "pairs": (sum(set(r["hidden"]) <= set(r["added"]) for r in pairs), len(pairs)),
-        "pairs_left": (sum(set(r["hidden"]) <= set(r["added"]) for r in findable),
-                       len(findable)),
-        "clean": s["effects_added_on_clean"], "half": s["found_with_half_excess_removed"],
-        "median": s["median_excess_removed_when_found"]}
+def summary(rows: list[dict], runs: list[dict], previous: dict | None = None) -> dict:
+    """The summary JSON: one entry per corner of `rows` (with the runs that made it:
+    machine, date, seconds), after the corners of `previous` that `rows` does not cover."""
+    corners = {}
+    for r in rows:
+        corners.setdefault(corner_key(r), []).append(r)
+    fresh = []
+    for sel in corners.values():
+        entry = summarise_corner(sel)
+        names = {r["_run"] for r in sel}
+        entry["runs"] = [{k: v for k, v in run.items() if k != "name"} for run in runs
+                         if run["name"] in names]
+        fresh.append(entry)
+    kept = [c for c in (previous or {}).get("corners", [])
+            if _entry_key(c) not in {_entry_key(c) for c in fresh}]
+    order = {s: k for k, s in enumerate(STARTS)}
+    every = sorted(kept + fresh, key=lambda c: (order.get(c["start"], 99), -c["dt_s"],
+                                                c["noise_N"]))
+    return {"benchmark": "diagnosis bench", "command": "python benchmarks/diagnosis_bench.py",
+            "targets": {**TARGETS, "added_on_clean": 0, "found_half_excess_removed": 1.0},
+            "absorbed_below": ABSORBED, "corners": every}
 
 
-def markdown_targets(rows: list[dict]) -> str:
-    """The targets, per truth and over all, as Markdown for docs/diagnosis.md: counts, and
-    over all the share and whether it is met."""
-    truths = list(dict.fromkeys(r["truth"] for r in rows))
-    per = [_counts([r for r in rows if r["truth"] == t]) for t in truths]
-    every = _counts(rows)
-
-    def frac(key, c):
-        k, n = c[key]
-        return f"{k} of {n}"
-
-    def total(key, goal):
-        k, n = every[key]
-        share = k / max(n, 1)
-        return (f"{k} of {n} ({100 * share:.0f} %): "
-                + ("met" if share >= goal else "**missed**"))
-
-    def half(c):
-        if c["half"] is None:
-            return "none found"
-        return ("all" if c["half"] == 1 else f"{100 * c['half']:.0f} %") + (
-            f" (median {100 * c['median']:.0f} %)")
-
-    lines = ["| target | " + " | ".join(truths) + " | all |", "|---" * (len(truths) + 2) + "|"]
-    for label, key, goal in (
-            ("single hidden effect named first (>= 90 %)", "singles", 0.9),
-            ("the same, leaving out the absorbed", "singles_left", 0.9),
-            ("both effects of a pair found (>= 80 %)", "pairs", 0.8),
-            ("the same, leaving out pairs with an effect absorbed alone", "pairs_left", 0.8)):
-        lines.append(f"| {label} | " + " | ".join(frac(key, c) for c in per)
-                     + f" | {total(key, goal)} |")
-    lines.append("| effects added on the clean file (0) | " + " | ".join(
-        str(c["clean"]) for c in per) + f" | {every['clean']}: "
-        + ("met" if every["clean"] == 0 else "**missed**") + " |")
-    lines.append("| half the excess error removed when found | " + " | ".join(
-        half(c) for c in per) + f" | {half(every)}: "
-        + ("met" if every["half"] in (None, 1.0) else "**missed**") + " |")
-    return "\n".join(lines)
+def _entry_key(c: dict) -> tuple:
+    return (c["dt_s"], c["noise_N"], c["start"], json.dumps(c.get("options", {}),
+                                                            sort_keys=True))
 
 
-def _replaced(files: list[dict], new: list[dict]) -> list[dict]:
-    """`files` with the rows of the same file (truth, hidden, noise, sampling) as in `new`
-    replaced by those, and the rows of files it did not have (a kind of file added to the
-    bench) after them."""
-    def key(r):
-        return r["truth"], tuple(r["hidden"]), r["noise"], r["dt"], r.get("start")
+def _git_date(path: Path) -> str | None:
+    """The date of the last commit of `path` (runs made before the rows held their date)."""
+    try:
+        out = subprocess.run(["git", "log", "-1", "--format=%cd", "--date=format:%Y-%m-%d",
+                              "--", path.name], cwd=path.parent, capture_output=True,
+                             text=True, timeout=10)
+    except OSError:
+        return None
+    return out.stdout.strip() or None
 
-    fresh = {key(r): r for r in new}
-    old = {key(r) for r in files}
-    return [fresh.get(key(r), r) for r in files] + [r for r in new if key(r) not in old]
+
+def _run_facts(name: str, data: dict, path: Path | None = None) -> dict:
+    m = data.get("machine", {})
+    date = data.get("date_utc") or (path is not None and _git_date(path)) or None
+    return {"name": name, "cpu": m.get("cpu"),
+            "cores": m.get("usable_cores") or m.get("cpus") or m.get("logical_cores"),
+            "date_utc": date, "seconds": data.get("seconds"), "quick": data.get("quick")}
 
 
-def _exactly(todo: list[dict], spec: str) -> list[dict]:
-    """The cases of `todo` named in `spec` (``TRUTH:HIDDEN,...``, see --files)."""
-    wanted = set()
-    for item in spec.split(","):
-        truth, sep, hidden = item.strip().partition(":")
-        if not sep or truth not in TRUTHS:
-            raise SystemExit(f"--files: {item!r} is not TRUTH:HIDDEN with TRUTH one of "
-                             f"{', '.join(TRUTHS)}")
-        names = () if hidden == "clean" else tuple(hidden.split("+"))
-        if any(n not in SINGLES for n in names):
-            raise SystemExit(f"--files: {hidden!r} is not 'clean' or effects of "
-                             f"{', '.join(SINGLES)} joined by '+'")
-        wanted.add((truth, names))
-    out = [c for c in todo if (c["truth"], tuple(c["hidden"])) in wanted]
-    missing = wanted - {(c["truth"], tuple(c["hidden"])) for c in out}
-    if missing:
-        raise SystemExit("--files: not among the bench's files (with these --truths, "
-                         f"--rates, --noises): {sorted(missing)}")
+def load_rows(paths: list[Path]) -> tuple[list[dict], list[dict]]:
+    """The rows of earlier runs (a file in a later run replaces it in an earlier one) and
+    the facts of each run."""
+    rows, runs = {}, []
+    for path in paths:
+        data = json.loads(path.read_text())
+        runs.append(_run_facts(path.name, data, path))
+        for r in data["files"]:
+            rows[file_key(r)] = {**r, "_run": path.name}
+    return list(rows.values()), runs
+
+
+def write_summary(path: Path, rows: list[dict], runs: list[dict]) -> dict:
+    previous = json.loads(path.read_text()) if path.is_file() else None
+    out = summary(rows, runs, previous)
+    path.write_text(json.dumps(out, indent=1) + "\n")
     return out
 
 
-def _reruns(base: dict) -> list[dict]:
-    """The earlier re-runs recorded in `base` (one dict before they were a list)."""
-    rerun = base.get("rerun", [])
-    return [rerun] if isinstance(rerun, dict) else list(rerun)
+def print_table(rows: list[dict]) -> None:
+    print(f"\n{'truth':<16} {'noise':>5} {'dt':>6}  {'hidden':<34} {'added (in order)':<40} "
+          "held-out RMSE before -> after, N")
+    for r in rows:
+        ok = "ok" if (found(r) if r["hidden"] else not r["added"]) else "MISS"
+        if absorbed(r):
+            ok += f" (absorbed: clean {r['rmse_holdout_clean']:.4f})"
+        print(f"{r['truth']:<16} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  "
+              f"{' + '.join(r['hidden']) or '(clean)':<34} "
+              f"{' + '.join(r['added']) or '-':<40} {r['rmse_holdout_before']:>10.4f} -> "
+              f"{r['rmse_holdout_after']:.4f}  {ok}")
 
 
-def _commit() -> str | None:
-    """The short commit of the checkout the bench runs from, if it is a git one."""
-    import subprocess
-
-    try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE,
-                             capture_output=True, text=True, timeout=10)
-    except OSError:
-        return None
-    return (out.stdout.strip() or None) if out.returncode == 0 else None
-
-
-def _by_truth(files: list[dict]) -> dict:
-    return {truth: summarise([r for r in files if r["truth"] == truth])
-            for truth in dict.fromkeys(r["truth"] for r in files)}
-
-
-def _print_all(out: dict) -> None:
-    rows = out["files"]
-    print_table(rows, out["summary"])
-    if len(out["by_truth"]) > 1:
-        for truth, part in out["by_truth"].items():
-            print(f"\n{truth}: " + ", ".join(
-                f"{k} {round(v, 3) if isinstance(v, float) else v}" for k, v in part.items()
-                if k in ("single_right_first", "single_right_first_not_absorbed",
-                         "pairs_both_found", "pairs_both_found_not_absorbed",
-                         "effects_added_on_clean")))
-    print("\n" + markdown(rows))
-    if len(out["by_truth"]) > 1:
-        print("\n" + markdown_by_truth(rows))
-    print("\n" + markdown_targets(rows))
-
-
-def _resummarise(path: Path) -> int:
-    out = json.loads(path.read_text())
-    out["summary"], out["by_truth"] = summarise(out["files"]), _by_truth(out["files"])
-    tmp = path.with_suffix(".json.partial")
-    tmp.write_text(json.dumps(out, indent=2) + "\n")
-    tmp.replace(path)
-    _print_all(out)
-    print(f"\nsummaries recomputed in {path}")
-    return 0
+def print_summary(out: dict) -> None:
+    for c in out["corners"]:
+        print(f"\ncorner dt {c['dt_s'] * 1e3:g} ms, noise {c['noise_N']:g} N, start "
+              f"{c['start']} ({', '.join(c['truths'])}; {c['files']} files):")
+        for k in ("singles", "singles_not_absorbed", "pairs", "pairs_not_absorbed",
+                  "found_half_excess_removed"):
+            print(f"  {k:<28} {c[k][0]} of {c[k][1]}")
+        print(f"  {'added_on_clean':<28} {c['added_on_clean']} ({c['clean_files']} files)")
+        for h, e in c["by_effect"].items():
+            print(f"  {h:<22} named first {e['named_first']} of {e['files']}"
+                  + (f", instead {e['instead']}" if e["instead"] else ""))
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
-    ap.add_argument("--json", default=str(HERE / "diagnosis_bench.json"),
-                    help="output JSON (default: %(default)s)")
+    ap.add_argument("--out", default=str(Path(tempfile.gettempdir())
+                                         / "diagnosis_bench_rows.json"),
+                    help="every file's row, JSON (default: %(default)s)")
+    ap.add_argument("--summary", help=f"the summary JSON (default: {SUMMARY}; with --quick "
+                    "or --only: next to --out)")
     ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
-    ap.add_argument("--files", help="comma-separated files to run, exactly: TRUTH:HIDDEN, "
-                    "HIDDEN an effect, a pair joined by '+', or 'clean' (e.g. "
-                    "gms_power:clean,gms_power:asymmetry+position_dependence); with "
-                    "--rates, --noises, --start")
     ap.add_argument("--truths", help=f"comma-separated truths (default: {', '.join(TRUTHS)}; "
                     "--quick: the first)")
     ap.add_argument("--rates", help="comma-separated sampling intervals in s (default: "
-                    f"{', '.join(map(str, RATES))}; --quick: the first). Records of 2e4 "
-                    "samples or more (1e-3: 97.5k) are searched on a copy of 1e4 "
-                    "(fitting._search_copy)")
+                    f"{', '.join(map(str, RATES))}; --quick: the first)")
     ap.add_argument("--noises", help="comma-separated force noise levels in N (default: "
                     f"{', '.join(map(str, NOISES))}; --quick: the first)")
-    ap.add_argument("--start", default="two-state",
-                    choices=("two-state", "gms", "lugre", "tustin"),
+    ap.add_argument("--start", default="two-state", choices=STARTS,
                     help="the model the diagnosis starts from (fitting.initial_model; "
-                    "default %(default)s): do the effects found depend on it?")
-    ap.add_argument("--update", metavar="JSON",
-                    help="re-run only these files (with --only, --truths) and write JSON: the "
-                    "run in this JSON with their rows replaced, summaries recomputed, and "
-                    "'rerun' saying which files (for a change that can only affect some)")
-    ap.add_argument("--resummarise", metavar="JSON",
-                    help="run nothing: recompute the summaries of an earlier run in place "
-                    "(after a change to the summary's measures) and print its tables")
+                    "default %(default)s)")
+    ap.add_argument("--summarise", nargs="+", metavar="ROWS", type=Path,
+                    help="run nothing: summarise the rows of earlier runs into --summary")
     args = ap.parse_args(argv)
-    if args.resummarise:
-        return _resummarise(Path(args.resummarise))
+    out = Path(args.out)
+    summary_path = Path(args.summary) if args.summary else (
+        out.with_name(out.stem + "_summary.json") if args.quick or args.only else SUMMARY)
+    if args.summarise:
+        rows, runs = load_rows(args.summarise)
+        print_summary(write_summary(summary_path, rows, runs))
+        print(f"\nwrote {summary_path}")
+        return 0
 
     def floats(text):
         return [float(v) for v in text.split(",")] if text else None
@@ -466,36 +339,27 @@ def main(argv=None) -> int:
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
-    if args.files:
-        todo = _exactly(todo, args.files)
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()
-
-    base = json.loads(Path(args.update).read_text()) if args.update else None
+    try:
+        from machine import machine_facts
+    except ImportError:
+        from benchmarks.machine import machine_facts
+    facts = {"machine": machine_facts(),
+             "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M")}
 
     def save(complete: bool) -> dict:
-        # Written after every file ("complete": false until the end), so that a run cut
-        # off (a crashed worker, a machine shut down) keeps what it had done.
-        files = rows if base is None else _replaced(base["files"], rows)
-        out = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
-                           "python": sys.version.split()[0]},
-               "quick": args.quick if base is None else base["quick"], "complete": complete,
-               "seconds": time.perf_counter() - t0, "summary": summarise(files),
-               "by_truth": _by_truth(files), "files": files}
-        if base is not None:
-            out["seconds"] = base["seconds"]
-            out["rerun"] = [*_reruns(base), {
-                "commit": _commit(), "files": [[r["truth"], r["hidden"]] for r in rows],
-                "seconds": time.perf_counter() - t0}]
-        tmp = Path(args.json).with_suffix(".json.partial")
-        tmp.write_text(json.dumps(out, indent=2) + "\n")
-        tmp.replace(args.json)
-        return out
+        # Written after every file, so that a run cut off keeps what it had done.
+        data = {**facts, "quick": args.quick, "complete": complete,
+                "seconds": time.perf_counter() - t0, "files": rows}
+        tmp = out.with_suffix(".json.partial")
+        tmp.write_text(json.dumps(data, indent=1) + "\n")
+        tmp.replace(out)
+        return data
 
     # A fresh worker for every file: each diagnosis compiles its own functions (about a
-    # hundred), and a worker that kept them all ran out of memory maps ("LLVM ERROR: Unable
-    # to allocate section memory") after about 14 files.
+    # hundred), and a worker that kept them all would run out of memory maps.
     with ProcessPoolExecutor(max_workers=args.jobs, max_tasks_per_child=1) as pool:
         for k, row in enumerate(pool.map(run_case, todo), start=1):
             rows.append(row)
@@ -503,8 +367,11 @@ def main(argv=None) -> int:
                   f"{' + '.join(row['hidden']) or '(clean)'}: added "
                   f"{' + '.join(row['added']) or 'nothing'}", flush=True)
             save(complete=False)
-    _print_all(save(complete=True))
-    print(f"\nwrote {args.json}")
+    data = save(complete=True)
+    print_table(rows)
+    run = _run_facts(out.name, data)
+    print_summary(write_summary(summary_path, [{**r, "_run": out.name} for r in rows], [run]))
+    print(f"\nwrote {out} (every file) and {summary_path} (the summary)")
     return 0
 
 

@@ -45,7 +45,10 @@ def machine_facts() -> dict:
         except Exception:
             return None
 
-    import numba
+    try:
+        import numba
+    except ImportError:  # the Numba baseline is optional
+        numba = None
 
     return {
         "cpu": cpu,
@@ -58,8 +61,8 @@ def machine_facts() -> dict:
         "python": platform.python_version(),
         "jax": jax.__version__,
         "jaxlib": version("jaxlib"),
-        "numba": numba.__version__,
-        "numba_threads": numba.get_num_threads(),
+        "numba": numba and numba.__version__,
+        "numba_threads": numba and numba.get_num_threads(),
         "numpy": np.__version__,
         "equinox": version("equinox"),
         "optimistix": version("optimistix"),

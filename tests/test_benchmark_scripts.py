@@ -1,6 +1,6 @@
-"""The profiling scripts of benchmarks/ run and write what they print (smoke tests on
-short motions; their timings are not checked, performance goals live in the benchmarks).
-Each runs as a script, as a user runs it: the tests never import the benchmarks."""
+"""The benchmarks of benchmarks/ run and write what they print (smoke tests on short
+motions; their timings are not checked, performance goals live in the benchmarks), and the
+diagnosis bench's summary counts what it should. The scripts run as a user runs them."""
 
 import json
 import subprocess
@@ -12,7 +12,6 @@ import pytest
 
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.slow  # about a minute together: compilation dominates
 
 
 def _run(script: str, *args) -> str:
@@ -22,81 +21,7 @@ def _run(script: str, *args) -> str:
     return run.stdout
 
 
-def test_profile_two_state_runs_and_writes_json(tmp_path):
-    out = tmp_path / "profile.json"
-    printed = _run("profile_two_state.py", "--n", "2000", "--repeats", "1", "--json", out)
-    data = json.loads(out.read_text())
-    assert data["meta"]["n"] == 2000
-    stages = [r["stage"] for r in data["rows"]]
-    assert len(stages) == 7 and all(s in printed for s in stages)
-    assert all(r["ns_per_sample"] > 0 for r in data["rows"])
-    # Stage costs are the differences of the cumulative rows (the jacfwd row has none).
-    rows = data["rows"]
-    assert abs(rows[1]["stage_ns_per_sample"]
-               - (rows[1]["ns_per_sample"] - rows[0]["ns_per_sample"])) < 1e-9
-    assert rows[-1]["stage_ns_per_sample"] is None
-
-
-def test_profile_two_state_batch_runs(tmp_path):
-    out = tmp_path / "profile_batch.json"
-    printed = _run("profile_two_state.py", "--n", "600", "--batch", "3", "--repeats", "1",
-                   "--json", out)
-    data = json.loads(out.read_text())
-    assert data["meta"]["batch"] == 3 and "ns/traj-step" in printed
-    assert len(data["rows"]) == 6  # the stages; no jacfwd row for a batch
-
-
-def test_fit_compile_runs_and_writes_json(tmp_path):
-    out = tmp_path / "compile.json"
-    printed = _run("fit_compile.py", "--n", "2000", "--batch", "2", "--json", out)
-    calls = json.loads(out.read_text())["calls"]
-    assert len(calls) == 3 and all(name in printed for name in calls)
-    assert all(c["wall_s"] > 0 and c["compilations"] >= 0 for c in calls.values())
-    # The second, identical fit reuses everything the first one compiled.
-    _, again, _ = calls.values()
-    assert again["compilations"] == 0, again["events"]
-
-
-def test_xla_costs_runs_and_writes_json(tmp_path):
-    out = tmp_path / "costs.json"
-    printed = _run("xla_costs.py", "--n", "3000", "--repeats", "1", "--json", out)
-    data = json.loads(out.read_text())
-    assert len(data["rows"]) == 8 and all(r["value"] > 0 for r in data["rows"])
-    ev = data["event_pass"]
-    assert 0 < ev["reversals"] <= ev["events"] < ev["iterations"]
-    assert "us per iteration" in printed
-
-
-def test_diagnosis_bench_runs_and_writes_json(tmp_path):
-    out = tmp_path / "bench.json"
-    printed = _run("diagnosis_bench.py", "--quick", "--only", "offset", "--json", out)
-    data = json.loads(out.read_text())
-    assert [f["hidden"] for f in data["files"]] == [[], ["offset"]]
-    assert data["complete"] and list(data["by_truth"]) == ["gms_power"]
-    assert "confusion" in printed and data["summary"]["singles"] == 1
-    assert "| single hidden effect named first (>= 90 %) | 1 of 1 | 1 of 1 (100 %): met |" \
-        in printed, printed  # the targets' table for the docs
-    # The clean twin (same motion and noise, no offset) fits better than the file with it.
-    row = data["files"][1]
-    assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]
-    assert data["summary"]["singles_absorbed_by_base"] == []
-    # --update re-runs the files selected (here exactly one, --files) into the earlier run;
-    # each re-run is listed, with the commit it ran at.
-    again = tmp_path / "again.json"
-    _run("diagnosis_bench.py", "--quick", "--files", "gms_power:offset", "--update", out,
-         "--json", again)
-    updated = json.loads(again.read_text())
-    assert [r["files"] for r in updated["rerun"]] == [[["gms_power", ["offset"]]]]
-    assert "commit" in updated["rerun"][0]
-    assert [f["added"] for f in updated["files"]] == [f["added"] for f in data["files"]]
-    assert updated["files"][0] == data["files"][0]  # the clean file was not re-run
-    # A file the bench does not have is refused before anything runs.
-    bad = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "diagnosis_bench.py"),
-                          "--quick", "--files", "gms_power:offset+nope"],
-                         capture_output=True, text=True, timeout=300, cwd=ROOT)
-    assert bad.returncode != 0 and "--files" in bad.stderr
-
-
+@pytest.mark.slow
 def test_c_step_runs_and_writes_json(tmp_path):
     import shutil
 
@@ -113,16 +38,8 @@ def test_c_step_runs_and_writes_json(tmp_path):
                for r in data["rows"])
 
 
-def test_profile_two_state_params_runs(tmp_path):
-    out = tmp_path / "profile_params.json"
-    printed = _run("profile_two_state.py", "--n", "600", "--params", "3", "--repeats", "1",
-                   "--json", out)
-    data = json.loads(out.read_text())
-    assert data["meta"]["params"] == 3 and "ns/set-step" in printed
-    assert len(data["rows"]) == 6  # the stages; no jacfwd row for parameter sets
-
-
-def test_montecarlo_speed_quick_runs_and_renders(tmp_path):
+@pytest.mark.slow
+def test_montecarlo_speed_quick_runs(tmp_path):
     pytest.importorskip("numba")
     out = tmp_path / "mc.json"
     printed = _run("montecarlo_speed.py", "--quick", "--json", out)
@@ -134,14 +51,9 @@ def test_montecarlo_speed_quick_runs_and_renders(tmp_path):
     assert all(r["max_abs_diff_N"] < 1e-9 and r["jaxfric_s"] > 0 and r["numba_s"] > 0
                for r in data["rows"])
     assert {o["op"] for o in data["ops"]} >= {"x ** p (XLA power)", "exp(p * log(x))"}
-    md = tmp_path / "B.md"
-    _run("make_benchmarks_md.py", ROOT / "benchmarks" / "throughput.json", "--montecarlo", out,
-         "--out", md, "--docs", "")
-    text = md.read_text()
-    assert "## Monte-Carlo, batch and single trajectory against Numba prange" in text
-    assert "smoke run" in text and all(c in text for c in cases)
 
 
+@pytest.mark.slow
 def test_fit_speed_runs_and_writes_json(tmp_path):
     out = tmp_path / "fit_speed.json"
     printed = _run("fit_speed.py", "--quick", "--json", out)
@@ -159,15 +71,7 @@ def test_fit_speed_runs_and_writes_json(tmp_path):
                                                   "RMSE vs scipy"}
 
 
-def test_interrupt_latency_runs_and_writes_json(tmp_path):
-    out = tmp_path / "interrupt.json"
-    printed = _run("interrupt_latency.py", "--n", "3000", "--delays", "0.3", "--json", out)
-    data = json.loads(out.read_text())
-    (row,) = data["rows"]
-    assert row["exit"] == 130 and row["one_line"] and row["left"] == [], row
-    assert data["summary"]["runs_with_expected_exit"] == 1 and "median" in printed
-
-
+@pytest.mark.slow
 def test_diagnose_speed_runs_and_writes_json(tmp_path):
     out = tmp_path / "speed.json"
     printed = _run("diagnose_speed.py", "--sizes", "1500", "--repeats", "1", "--json", out)
@@ -201,6 +105,7 @@ def test_diagnose_speed_medians():
         _medians([run("empty", 1.0), run("empty", 2.0, ())])
 
 
+@pytest.mark.slow
 def test_compiler_options_compares_both_settings(tmp_path):
     out = tmp_path / "options.json"
     printed = _run("compiler_options.py", "--n", "2000", "--rounds", "1", "--json", out)
@@ -211,3 +116,85 @@ def test_compiler_options_compares_both_settings(tmp_path):
         assert r["jaxfric: compile_s"] > 0 and r["XLA defaults: compile_s"] > 0
         assert r["max_dF_N"] < 1e-6  # only the generated code differs
         assert r["case"] in printed
+
+
+@pytest.mark.slow
+def test_diagnosis_bench_runs_and_writes_rows_and_summary(tmp_path):
+    committed = (ROOT / "benchmarks" / "diagnosis_bench.json").read_text()
+    rows = tmp_path / "rows.json"
+    printed = _run("diagnosis_bench.py", "--quick", "--only", "offset", "--out", rows)
+    data = json.loads(rows.read_text())
+    # --only: the clean file and every file with an offset hidden, alone or in a pair.
+    assert [f["hidden"] for f in data["files"]] == [[], ["offset"], ["friction_lag", "offset"]]
+    assert data["complete"] and data["date_utc"] and data["machine"]["cpu"]
+    # The clean twin (same motion and noise, no offset) fits better than the file with it.
+    row = data["files"][1]
+    assert row["rmse_holdout_clean"] < 0.9 * row["rmse_holdout_before"]
+    # A --only run's summary goes next to its rows, not over the committed one.
+    (corner,) = json.loads((tmp_path / "rows_summary.json").read_text())["corners"]
+    assert (corner["dt_s"], corner["noise_N"], corner["start"]) == (0.01, 0.03, "two-state")
+    assert corner["files"] == 3 and corner["truths"] == ["gms_power"]
+    assert corner["by_pair"]["friction_lag + offset"]["files"] == 1
+    assert corner["by_effect"]["offset"]["files"] == 1 and corner["clean_files"] == 1
+    assert corner["singles"] == [int(row["first"] == "offset"), 1]
+    assert "corner dt 10 ms, noise 0.03 N, start two-state" in printed
+    assert (ROOT / "benchmarks" / "diagnosis_bench.json").read_text() == committed
+
+
+def _bench():
+    from benchmarks import diagnosis_bench
+
+    return diagnosis_bench
+
+
+def test_diagnosis_bench_pairs_added_later_keep_the_seeds_of_the_first():
+    """A kind of pair added to the bench takes the next seed: the files made before it
+    (their motion and noise are seeded by file) stay the same."""
+    bench = _bench()
+    seeds = {tuple(c["hidden"]): c["seed"] for c in bench.cases(quick=True)}
+    assert seeds[()] == 0 and seeds[("quadratic_drag", "drift")] == 13
+    assert [seeds[p] for p in bench.PAIRS] == list(range(11, 11 + len(bench.PAIRS)))
+    assert {e for p in bench.PAIRS for e in p} == set(bench.SINGLES)
+
+
+def _row(hidden, added, before=0.2, after=0.1, clean=0.1, truth="lugre", dt=0.01):
+    return {"truth": truth, "noise": 0.03, "dt": dt, "start": "two-state",
+            "hidden": list(hidden), "added": list(added),
+            "first": added[0] if added else None, "rmse_holdout_before": before,
+            "rmse_holdout_after": after, "rmse_holdout_clean": clean if hidden else None}
+
+
+def test_diagnosis_bench_summary_counts(tmp_path):
+    """Found, absorbed, the pairs left when an effect is absorbed alone, the excess removed,
+    and what was named instead, per corner; a later run's file replaces the earlier one's,
+    and a run's corners replace theirs in the summary while the others are kept."""
+    bench = _bench()
+    first = [_row([], []), _row(["offset"], ["offset"], after=0.14),  # 60 % of the excess
+             _row(["drift"], ["cogging"]),  # missed
+             _row(["quadratic_drag"], [], before=0.105),  # absorbed (< 10 % over 0.1)
+             _row(["quadratic_drag", "drift"], ["drift"]),  # the drag absorbed alone
+             _row(["offset", "drift"], ["drift", "offset", "cogging"])]
+    later = [_row(["drift"], ["drift"], after=0.18)]  # re-run: found, 20 % removed
+    other = [_row([], ["offset"], dt=0.005)]
+    paths = []
+    for k, rows in enumerate((first, later)):
+        paths.append(tmp_path / f"run{k}.json")
+        paths[-1].write_text(json.dumps({"files": rows, "date_utc": f"2030-01-0{k + 1}",
+                                         "machine": {"cpu": "X", "usable_cores": 2}}))
+    summary = tmp_path / "summary.json"
+    summary.write_text(json.dumps(bench.summary(
+        [{**r, "_run": "o"} for r in other], [{"name": "o", "cores": 2}])))
+    rows, runs = bench.load_rows(paths)
+    out = bench.write_summary(summary, rows, runs)
+    c10, c5 = out["corners"]
+    assert (c10["dt_s"], c5["dt_s"], c5["added_on_clean"]) == (0.01, 0.005, 1)
+    assert c10["files"] == 6 and c10["singles"] == [2, 3]
+    assert c10["singles_not_absorbed"] == [2, 2]
+    assert c10["pairs"] == [1, 2] and c10["pairs_not_absorbed"] == [1, 1]
+    assert c10["added_on_clean"] == 0 and c10["not_hidden_added"] == 1
+    assert c10["found_half_excess_removed"] == [2, 3]  # 60 %, 100 %, 20 %
+    assert c10["median_excess_removed"] == pytest.approx(0.6)
+    assert c10["by_effect"]["quadratic_drag"] == {"files": 1, "named_first": 0,
+                                                  "absorbed": 1, "instead": {"nothing": 1}}
+    assert c10["by_pair"]["offset + drift"] == {"files": 1, "both_found": 1}
+    assert [r["date_utc"] for r in c10["runs"]] == ["2030-01-01", "2030-01-02"]

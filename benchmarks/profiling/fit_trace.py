@@ -4,16 +4,17 @@ Fits the data and start of `benchmarks/fit_speed.py` (default 1e4 samples) once 
 `progress` callback and prints, after every compiled chunk, the steps so far, the cost
 ``sum(r^2)/2`` (residuals scaled as the solver sees them), its relative decrease over the
 chunk and the seconds so far; then the status, why the fit stopped, the RMSE, the condition
-number and `FitResult.weakly_determined`. Writes benchmarks/fit_trace.json unless ``--json``
-says otherwise.
+number and `FitResult.weakly_determined`. Writes benchmarks/profiling/fit_trace.json
+unless ``--json`` says otherwise.
 
-    python benchmarks/fit_trace.py [--n 10000] [--json OUT]
+    python benchmarks/profiling/fit_trace.py [--n 10000] [--json OUT]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import fitting
@@ -21,7 +22,8 @@ import fitting
 
 try:
     from benchmarks import fit_speed as fs
-except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
+except ImportError:  # run as a script: benchmarks/profiling/ is sys.path[0]
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import fit_speed as fs
 
 
@@ -44,7 +46,7 @@ def main(argv=None) -> int:
         dec = "-" if c["rel_decrease"] is None else f"{c['rel_decrease']:.2e}"
         print(f"{c['steps']} | {c['cost']:.10g} | {dec} | {c['seconds']:.1f}")
     weak = [list(p) for p in res.weakly_determined()]
-    out = {"command": f"python benchmarks/fit_trace.py --n {args.n}", "n": args.n,
+    out = {"command": f"python benchmarks/profiling/fit_trace.py --n {args.n}", "n": args.n,
            "chunks": chunks, "status": res.status, "stopped": res.stopped,
            "steps": int(res.num_steps), "rmse": float(res.rmse),
            "condition_number": float(res.condition_number), "weakly_determined": weak}

@@ -13,7 +13,7 @@ side by side (all cases called once in turn per round, medians), in float64:
   n = 1e6): the number of reversals and events, the loop's iterations (blocks plus events)
   and its time per iteration.
 
-Run ``python benchmarks/xla_costs.py [--n N] [--repeats R] [--json OUT]``.
+Run ``python benchmarks/profiling/xla_costs.py [--n N] [--repeats R] [--json OUT]``.
 """
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -34,7 +36,8 @@ from jaxfric.motion import make_motion
 
 try:
     from benchmarks.motions import mixed_path
-except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
+except ImportError:  # run as a script: benchmarks/profiling/ is sys.path[0]
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from motions import mixed_path
 
 

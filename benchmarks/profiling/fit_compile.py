@@ -7,7 +7,7 @@ state. This script says what that first call is made of: it runs `fitting.fit` (
 the line of jaxfric/fitting that asked for it), the tracing of the solve, and the wall
 time of each call. Run it in a fresh process:
 
-    python benchmarks/fit_compile.py [--n 10000] [--batch 4] [--warm-cache] [--json OUT]
+    python benchmarks/profiling/fit_compile.py [--n 10000] [--batch 4] [--warm-cache] [--json OUT]
 
 With ``--warm-cache`` the same calls are then run twice more, each in a new process that
 shares a fresh persistent compilation cache folder (`jaxfric.enable_compilation_cache`,
@@ -40,7 +40,8 @@ from jaxfric import paper
 
 try:
     from benchmarks.motions import mixed_path, perturbed_start, synthetic_force
-except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
+except ImportError:  # run as a script: benchmarks/profiling/ is sys.path[0]
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from motions import mixed_path, perturbed_start, synthetic_force
 
 

@@ -1,4 +1,4 @@
-"""How fast does Ctrl-C stop ``jaxfric fit``, and how? (issue 21, item 3)
+"""How fast does Ctrl-C stop ``jaxfric fit``, and how?
 
 Writes a measurement of `--n` samples (the `jaxfric.examples.excitation` motion repeated,
 the paper's two-state model, 0.05 N of noise), then, for each delay, starts
@@ -9,11 +9,11 @@ exit code (130 expected, 143 for SIGTERM; -11 is a crash), whether stderr is the
 ``jaxfric fit: interrupted`` (or ``terminated``), and whether anything but the input is
 left in the folder (a temp file, a JSON).
 
-    python benchmarks/interrupt_latency.py [--n 100000] [--delays 0.5,2,3,4,5,8]
+    python benchmarks/profiling/interrupt_latency.py [--n 100000] [--delays 0.5,2,3,4,5,8]
         [--signal INT|TERM] [--json out.json]
 
 Prints a table (medians and worst at the end) and writes JSON (default
-benchmarks/interrupt_latency.json).
+benchmarks/profiling/interrupt_latency.json).
 """
 
 import argparse

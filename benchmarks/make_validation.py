@@ -1,0 +1,368 @@
+"""Write docs/validation.md from the benchmarks' summary JSONs (no number is typed here).
+
+    python benchmarks/make_validation.py [--check]
+
+Reads, relative to the repository root: ``benchmarks/diagnosis_bench.json``,
+``benchmarks/fit_speed.json``, ``benchmarks/throughput.json``,
+``benchmarks/montecarlo_speed.json``, ``benchmarks/c_step.json``,
+``benchmarks/diagnose_speed.json``, ``benchmarks/compiler_options.json`` and the real-data
+results ``docs/figures/emps_diagnosis.json`` and ``docs/figures/tribometer.json``. A
+missing file gives its section a line saying so. ``--check`` writes nothing and exits 1
+when the committed page differs from what the JSONs give (``tests/test_validation_page.py``
+does the same). Units: s, ns, N.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "validation.md"
+SOURCES = {
+    "diagnosis": "benchmarks/diagnosis_bench.json",
+    "fit_speed": "benchmarks/fit_speed.json",
+    "throughput": "benchmarks/throughput.json",
+    "montecarlo": "benchmarks/montecarlo_speed.json",
+    "c_step": "benchmarks/c_step.json",
+    "diagnose_speed": "benchmarks/diagnose_speed.json",
+    "compiler_options": "benchmarks/compiler_options.json",
+    "emps": "docs/figures/emps_diagnosis.json",
+    "tribometer": "docs/figures/tribometer.json",
+}
+
+
+def fmt(v, spec=".3g") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, (int, float)):
+        return format(v, spec)
+    return str(v)
+
+
+def table(headers: list[str], rows: list[list]) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(fmt(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def status(met) -> str:
+    return "-" if met is None else ("met" if met else "**MISSED**")
+
+
+def goals_table(goals: list[tuple]) -> str:
+    """`goals`: ``(goal, measured, target, met)``."""
+    return table(["goal", "measured", "target", "status"],
+                 [[g, m, t, status(ok)] for g, m, t, ok in goals])
+
+
+def _find(d: dict, *keys):
+    """The first of `keys` found at the top of `d` or in its "machine" or "meta"."""
+    for where in (d, d.get("machine") or {}, d.get("meta") or {}):
+        for k in keys:
+            if where.get(k) not in (None, ""):
+                return where[k]
+    return None
+
+
+def machine_line(d: dict) -> str:
+    cpu = _find(d, "cpu") or "CPU not recorded"
+    cores = _find(d, "usable_cores", "logical_cores", "cores", "cpus", "cpu_count")
+    date = _find(d, "date_utc")
+    return (f"Machine: {cpu}, {cores or '?'} cores; "
+            + (f"run {date} UTC." if date else "date of the run not recorded in the JSON."))
+
+
+def _percent(v, spec=".0f") -> str:
+    return "-" if v is None else f"{format(100 * v, spec)} %"
+
+
+def command(cmd: str, json_path: str | None = None) -> str:
+    """A code block; an ``--json`` path of the recorded command (a scratch file) is shown as
+    the committed JSON's."""
+    if json_path:
+        cmd = re.sub(r"--json \S+", f"--json {json_path}", cmd)
+    return f"Reproduce:\n\n```\n{cmd}\n```"
+
+
+def _ratio(k: int, n: int) -> str:
+    return f"{k} of {n} ({100 * k / max(n, 1):.0f} %)"
+
+
+def section_diagnosis(d: dict) -> list[str]:
+    corners = d["corners"]
+    targets = d["targets"]
+
+    def total(key):
+        return [sum(c[key][i] for c in corners) for i in (0, 1)]
+
+    s, p, h = total("singles"), total("pairs"), total("found_half_excess_removed")
+    sl, pl = total("singles_not_absorbed"), total("pairs_not_absorbed")
+    clean = sum(c["added_on_clean"] for c in corners)
+    files = sum(c["files"] for c in corners)
+    goals = [
+        ("single hidden effect named first", _ratio(*s), f">= {100 * targets['singles']:.0f} %",
+         s[0] >= targets["singles"] * s[1]),
+        ("the same, leaving out the absorbed", _ratio(*sl), "", None),
+        ("both effects of a pair found", _ratio(*p), f">= {100 * targets['pairs']:.0f} %",
+         p[0] >= targets["pairs"] * p[1]),
+        ("the same, leaving out pairs with an effect absorbed alone", _ratio(*pl), "", None),
+        ("effects added on clean files", clean, "0", clean == 0),
+        ("half the excess error removed when found", _ratio(*h), "every file", h[0] == h[1]),
+    ]
+    per_corner = [[f"{1e3 * c['dt_s']:g}", f"{c['noise_N']:g}", c["start"], len(c["truths"]),
+                   "{} / {}".format(*c["singles"]), "{} / {}".format(*c["pairs"]),
+                   c["added_on_clean"], _percent(c["median_excess_removed"])]
+                  for c in corners]
+    effects = {}
+    for c in corners:
+        for name, e in c["by_effect"].items():
+            acc = effects.setdefault(name, {"files": 0, "named_first": 0, "absorbed": 0,
+                                            "instead": {}})
+            for k in ("files", "named_first", "absorbed"):
+                acc[k] += e[k]
+            for other, n in e["instead"].items():
+                acc["instead"][other] = acc["instead"].get(other, 0) + n
+    per_effect = [[name, f"{e['named_first']} / {e['files']}", e["absorbed"],
+                   ", ".join(f"{k} ({n})" for k, n in e["instead"].items()) or "-"]
+                  for name, e in effects.items()]
+    runs = [r for c in corners for r in c.get("runs", [])]
+    dates = sorted({r["date_utc"] for r in runs if r.get("date_utc")})
+    cores = sorted({r["cores"] for r in runs if r.get("cores")})
+    cpus = sorted({r["cpu"] for r in runs if r.get("cpu")})
+    hours = sum(r.get("seconds") or 0 for r in runs) / 3600
+    return [
+        "`jaxfric diagnose` on synthetic measurements from three truths that are not the "
+        "fitted model (a power-law GMS, a stiff LuGre, a power-shape two-state model), with "
+        "a 0.05 um encoder, force noise, and one hidden effect, a pair or none. A *corner* is "
+        "one sampling interval, noise level and starting model. An effect is *absorbed* when "
+        "it raises "
+        f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
+        f"the same file without it. {files} files in {len(corners)} corners.",
+        goals_table(goals),
+        "Per corner (excess removed: median over the files where the effect was found):",
+        table(["dt [ms]", "noise [N]", "start", "truths", "single named first",
+               "pair both found", "added on clean", "excess removed"], per_corner),
+        "Per hidden effect, over all corners:",
+        table(["hidden effect", "named first", "absorbed", "named first instead"],
+              per_effect),
+        command("python benchmarks/diagnosis_bench.py --jobs 2 --out ROWS.json\n"
+                "python benchmarks/diagnosis_bench.py --rates 0.001 --truths two_state_power "
+                "--jobs 2 --out ROWS_1ms.json\n"
+                "python benchmarks/diagnosis_bench.py --quick --start gms --summary "
+                "benchmarks/diagnosis_bench.json --out ROWS_gms.json")
+        + f"\n\nThe runs took {hours:.1f} h of wall time in all.",
+        f"Machine: {', '.join(cpus) or 'CPU not recorded'}, "
+        f"{'/'.join(map(str, cores)) or '?'} cores; runs dated "
+        + (" to ".join(dict.fromkeys([dates[0], dates[-1]])) if dates else "(not recorded)")
+        + ".",
+    ]
+
+
+def _goal_rows(goals: list[dict]) -> list[tuple]:
+    """Goals as the benchmark scripts write them: ``goal``, ``measured``, ``target``
+    (a number or a text), optional ``unit``, ``n``, and ``met`` (bool) or ``status``."""
+    out = []
+    for g in goals:
+        unit = g.get("unit", "")
+        target = g.get("target")
+        if not unit and isinstance(target, str) and target.endswith("x"):
+            unit = "x"
+        name = g["goal"] + (f" (n = {g['n']:.0e})".replace("e+0", "e") if "n" in g else "")
+        space = "" if unit in ("", "x") else " "
+        target = (f"{target:g}{space}{unit}" if isinstance(target, (int, float))
+                  else target)
+        met = g["met"] if "met" in g else {"PASS": True, "MISS": False}.get(g.get("status"))
+        measured = g.get("measured")
+        if measured is not None and isinstance(target, str) and "%" in target:
+            measured = f"{100 * measured:+.1g} %"
+        elif measured is not None:
+            measured = fmt(measured) + space + unit
+        out.append((name, measured, target, met))
+    return out
+
+
+def section_fit_speed(d: dict) -> list[str]:
+    rows = [[f"{r['n']:.0e}".replace("e+0", "e"), r["jaxfric"].get("first_s"),
+             r["jaxfric"].get("warm_s"), r["jaxfric"].get("steps"), r["scipy"].get("first_s"),
+             r["scipy"].get("warm_s"), r["scipy"].get("steps")]
+            for r in d.get("rows", []) if "jaxfric" in r and "scipy" in r]
+    return [
+        "`fitting.fit` of the two-state model against `scipy.optimize.least_squares` (trf, "
+        "finite differences) around a Numba loop of the same model, on the same data and "
+        "start, side by side: the first call (compilation included) and a warm call.",
+        goals_table(_goal_rows(d.get("goals", []))),
+        table(["samples", "jaxfric first [s]", "warm [s]", "steps", "scipy first [s]",
+               "warm [s]", "steps"], rows) if rows else "",
+        command(d.get("command", "python benchmarks/fit_speed.py"), SOURCES["fit_speed"]),
+        machine_line(d)]
+
+
+def section_throughput(d: dict) -> list[str]:
+    return [
+        "Simulation, batches, gradients and fits of the two-state model against a "
+        "hand-written Numba loop of the same algorithm, and compile times, all measured "
+        "side by side in one run (medians over interleaved rounds).",
+        goals_table(_goal_rows(d.get("goals", []))),
+        command(d.get("command", "python benchmarks/throughput.py"), SOURCES["throughput"]),
+        machine_line(d)]
+
+
+def section_montecarlo(d: dict) -> list[str]:
+    target = d.get("target", 2.0)
+    if d.get("goals"):  # a script that judges its own goals
+        goals = _goal_rows(d["goals"])
+    else:
+        goals = [(f"{r['case']} (B = {r['size']['B']}, n = {r['size']['n']:.0e})"
+                  .replace("e+0", "e"), f"{r['ratio']:.2f}x", f">= {target:g}x",
+                  r["ratio"] >= target) for r in d.get("rows", [])]
+    return [
+        "`jaxfric.simulate_many` over parameter sets and trajectories, and `simulate` on one "
+        "long trajectory, against a Numba `prange` loop of the same algorithm (ratio = "
+        "Numba time / jaxfric time; the forces agree to "
+        f"{fmt(max((r['max_abs_diff_N'] for r in d.get('rows', [])), default=None), '.0e')}"
+        " N).", goals_table(goals),
+        command(d.get("command", "python benchmarks/montecarlo_speed.py"),
+                SOURCES["montecarlo"]), machine_line(d)]
+
+
+def section_real(emps: dict | None, tribo: dict | None) -> list[str]:
+    out = []
+    if emps is not None:
+        b, a = emps["baseline"], emps["after"]
+        out += [
+            "EMPS positioning stage (24,841 samples at 1 kHz, motor force against position): "
+            "`jaxfric diagnose` from the two-state model, in-sample and held-out RMSE before "
+            "and after the effects it added.",
+            table(["", "RMSE [N]", "held-out RMSE [N]", "relative error"],
+                  [["two-state alone", b["rmse"], b["rmse_holdout"],
+                    _percent(b["rel_error"], ".1f")],
+                   ["+ " + ", ".join(a["added"]), a["rmse"], a["rmse_holdout"],
+                    _percent(a["rel_error"], ".1f")]]),
+            command("jaxfric diagnose ../shared/data/emps_estimation.csv "
+                    "--json docs/figures/emps_diagnosis.json --report docs/figures/emps")]
+    if tribo is not None:
+        rows = [[name, m["n_params"], m["rmse_fit"], m["rmse_val"], _percent(m["nrmse_val"], ".1f")]
+                for name, m in tribo["models"].items()]
+        data = tribo.get("data", {})
+        out += [
+            "Reciprocating tribometer (direct force and position): each model fitted to the "
+            f"first {100 * data.get('fit_fraction', 0.7):.0f} % of the record, checked on "
+            "the rest (NRMSE: RMSE over the force range).",
+            table(["model", "free parameters", "RMSE fit [N]", "RMSE held out [N]",
+                   "NRMSE held out"], rows),
+            command("python examples/tribometer.py --data ../shared/data/tribometer.csv "
+                    "--json docs/figures/tribometer.json --out docs/figures")]
+    return out + ["Machine: not recorded in these JSONs."]
+
+
+def section_c_step(d: dict) -> list[str]:
+    target = _find(d, "target_ns") or 100.0
+    if d.get("goals"):  # a script that judges its own goals
+        goals = _goal_rows(d["goals"])
+    else:
+        goals = [(f"C step, {r['model']}", f"{r['c_ns_per_step']:.0f} ns", f"<= {target:g} ns",
+                  r["c_ns_per_step"] <= target) for r in d["rows"]]
+    worst = max(r["c_max_error_rel_to_max_force"] for r in d["rows"])
+    return [
+        "The exported C step (`jaxfric.export`, `cc -O2`) per sample, called in a C loop as a "
+        "controller would call it; its forces equal `jaxfric.simulate`'s to "
+        f"{worst:.0e} of the largest force.", goals_table(goals),
+        command("python benchmarks/c_step.py"), machine_line(d)]
+
+
+def section_diagnose_speed(d: dict) -> list[str]:
+    goal = d.get("goal_s_at_1e5", 60.0)
+    big = [r for r in d["rows"] if r["samples"] >= 0.9e5]
+    if d.get("goals"):  # a script that judges its own goals
+        goals = _goal_rows(d["goals"])
+    else:
+        goals = [(f"`jaxfric diagnose`, {r['samples']} samples, {r['cache']} compilation cache",
+                  f"{r['wall_s']:.0f} s", f"<= {goal:g} s", r["wall_s"] <= goal) for r in big]
+    return [
+        "Wall time of the `jaxfric diagnose` command on a synthetic file (one hidden cogging) "
+        "in a fresh process, with an empty compilation cache, then with the one that run "
+        "filled (medians of "
+        f"{d.get('repeats', '?')} runs).", goals_table(goals),
+        command("python benchmarks/diagnose_speed.py"), machine_line(d)]
+
+
+def section_compiler_options(d: dict) -> list[str]:
+    if d.get("goals"):  # a script that judges its own goals
+        goals = _goal_rows(d["goals"])
+    else:
+        goals = [(f"compile time, {r['case']}: XLA defaults / jaxfric",
+                  f"{r['ratio compile_s']:.2f}", "> 1", r["ratio compile_s"] > 1)
+                 for r in d["rows"]]
+    steady = ("Steady runs, XLA defaults / jaxfric: " + "; ".join(
+        f"{r['case']} {r['ratio steady_s']:.2f}" for r in d["rows"]) + ". Largest force "
+        f"difference between the settings: {max(r['max_dF_N'] for r in d['rows']):.0e} N.")
+    return [
+        "jaxfric's compiler options (`jaxfric._compile`) against XLA's defaults: compile and "
+        "run time of `simulate` and `fit` in fresh processes without a compilation cache "
+        "(ratio > 1: jaxfric's options are faster).",
+        goals_table(goals), steady, command("python benchmarks/compiler_options.py"),
+        machine_line(d)]
+
+
+SECTIONS = [
+    ("Diagnosis bench", ("diagnosis",), section_diagnosis),
+    ("Fit speed", ("fit_speed",), section_fit_speed),
+    ("Throughput", ("throughput",), section_throughput),
+    ("Monte-Carlo", ("montecarlo",), section_montecarlo),
+    ("Real data", ("emps", "tribometer"), None),
+    ("C step", ("c_step",), section_c_step),
+    ("Diagnose speed", ("diagnose_speed",), section_diagnose_speed),
+    ("Compiler options", ("compiler_options",), section_compiler_options),
+]
+
+
+def render(root: Path = ROOT) -> str:
+    def load(key):
+        path = root / SOURCES[key]
+        return json.loads(path.read_text()) if path.is_file() else None
+
+    parts = ["# Validation", "",
+             "What the benchmarks measure and whether each goal is met. The numbers come from "
+             "the JSONs the benchmarks write; `python benchmarks/make_validation.py` generates "
+             "this page from them. The machine is a shared 2-core one: ratios measured side by "
+             "side in one run mean more than absolute times.", ""]
+    for title, keys, fn in SECTIONS:
+        data = [load(k) for k in keys]
+        parts += [f"## {title}", ""]
+        if all(x is None for x in data):
+            body = [f"No results: `{'`, `'.join(SOURCES[k] for k in keys)}` is missing."]
+        else:
+            try:
+                body = (fn or section_real)(*data)
+            except (KeyError, TypeError, ValueError) as e:
+                # A JSON whose layout this page does not know: say so, do not guess.
+                body = [f"Cannot read `{'`, `'.join(SOURCES[k] for k in keys)}`: "
+                        f"{type(e).__name__} {e}. Update `benchmarks/make_validation.py`."]
+        parts += [b for x in body if x for b in (x, "")]
+    return "\n".join(parts).rstrip() + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true",
+                    help="exit 1 if docs/validation.md differs from the JSONs' page")
+    ap.add_argument("--out", type=Path, default=PAGE, help="default: %(default)s")
+    args = ap.parse_args(argv)
+    text = render()
+    if args.check:
+        same = args.out.is_file() and args.out.read_text() == text
+        print(f"{args.out}: " + ("up to date" if same else "differs from the JSONs: run "
+                                 "python benchmarks/make_validation.py"))
+        return 0 if same else 1
+    args.out.write_text(text)
+    print(f"wrote {args.out} ({len(text.split())} words)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
