@@ -24,6 +24,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .. import _kernel
 from .._fields import param
 from .._numerics import linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
@@ -239,6 +240,10 @@ class TwoState(AbstractFrictionModel):
         gradients: everything it decides is discrete."""
         params, static = eqx.partition(self, eqx.is_array)
         params, x, s, x_prev, s_r = jax.lax.stop_gradient((params, x, s, x_prev, s_r))
+        if _kernel.use_kernel(x, s, x_prev, s_r):  # the compiled CPU kernel (jaxfric._kernel)
+            l1 = jax.lax.stop_gradient(self.shape.l1)
+            return _Events(*_kernel.event_pass(x, s, reversal, x_prev, s_r, l1,
+                                               self.stack_size))
         return _event_records(static)(params, x, s, reversal, x_prev, s_r)
 
     def _lag_coefficients(self, dt, s, d, prev_last_d, reversal, s_prev, gamma):
@@ -371,7 +376,10 @@ class TwoState(AbstractFrictionModel):
 def _fill_records(rec: "_Events"):
     """Forward-fill the event records: each sample uses the state after the last event at
     or before it (the zero state before the first). Returns the entry in use (`active`,
-    a sample index or -1), the stack `depth` and `popped_until` per sample."""
+    a sample index or -1), the stack `depth` and `popped_until` per sample (given by the
+    kernel, which fills them as it goes)."""
+    if rec.filled is not None:
+        return rec.filled[:, 0], rec.filled[:, 1], rec.filled[:, 2]
     n = rec.table.shape[0] - 1
     idx = jnp.arange(n, dtype=jnp.int32)
     last = running_max(jnp.where(rec.event, idx, -1))
@@ -524,11 +532,14 @@ class _Events(eqx.Module):
     no event at this sample), the `parent` of the entry pushed there, and `popped_until`,
     the length of the list `popped` of entries closed so far (their sample indices, in
     order); `overflow` counts entries dropped for space. One table rather than an array per
-    field because each write in the event loop is a separate kernel call on the CPU."""
+    field because each write in the event loop is a separate kernel call on the CPU. The
+    compiled kernel also returns `filled` (what `_fill_records` computes; None from the
+    JAX loop)."""
 
     table: Int[Array, "n1 4"]
     popped: Int[Array, " m"]
     overflow: Int[Array, ""]
+    filled: Int[Array, "n 3"] | None = None
 
     @property
     def event(self):

@@ -1,0 +1,186 @@
+"""The two-state event pass as a compiled CPU kernel called through the XLA FFI.
+
+`events.cc` (shipped with the package) is the event loop of
+``jaxfric._models.two_state`` written as one C++ loop per trajectory, with the same
+float64 arithmetic, so that its records are bit-identical to the pure-JAX loop's
+(tests/test_event_kernel.py). It is compiled on first use with the system C++ compiler
+(``$CXX``, else ``c++``, ``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``,
+else ``$XDG_CACHE_HOME/jaxfric``, else ``~/.cache/jaxfric``), under a name keyed by a hash
+of the source, the jaxlib version and the compiler, loaded with ``ctypes`` and registered
+once per process with `jax.ffi.register_ffi_target`.
+
+**When it is used** (`use_kernel`): on the CPU backend, for float64 inputs. The
+environment variable ``JAXFRIC_EVENT_KERNEL`` chooses: ``jax`` always uses the pure-JAX
+event loop (the path on GPU/TPU); ``kernel`` requires the kernel (a failed build raises);
+unset or ``auto`` uses the kernel when it builds, else logs one line (logger ``jaxfric``)
+and uses the pure-JAX loop.
+
+Under ``jax.vmap`` the call receives the batch (``vmap_method="expand_dims"``: an input
+not batched keeps a dimension of 1, which the kernel broadcasts rather than copies) and
+loops over it, on several threads when the batch is large. Its outputs are integers and
+its inputs are on stopped gradients, so ``grad`` and ``jacfwd`` never differentiate it.
+"""
+
+import ctypes
+import hashlib
+import logging
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+from importlib import resources
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+TARGET = "jaxfric_event_pass"
+SYMBOL = "JaxfricEventPass"
+FLAGS = ("-O3", "-std=c++17", "-shared", "-fPIC", "-pthread", "-w")
+ENV = "JAXFRIC_EVENT_KERNEL"
+
+_logger = logging.getLogger("jaxfric")
+_lock = threading.Lock()
+_state: dict = {}  # "ok": bool once decided; "error": why not
+
+
+def _mode() -> str:
+    mode = os.environ.get(ENV, "auto").strip().lower() or "auto"
+    if mode not in ("auto", "jax", "kernel"):
+        raise ValueError(f"{ENV} must be 'auto', 'jax' or 'kernel', got {mode!r}")
+    return mode
+
+
+def source() -> str:
+    """The kernel's C++ source."""
+    return resources.files(__package__).joinpath("events.cc").read_text()
+
+
+def find_compiler() -> str | None:
+    """Path of the C++ compiler: ``$CXX``, else the first of ``c++``, ``g++``, ``clang++``."""
+    for name in (os.environ.get("CXX"), "c++", "g++", "clang++"):
+        if name and (path := shutil.which(name)):
+            return path
+    return None
+
+
+def cache_dir() -> Path:
+    """Where built kernels are kept (module docstring)."""
+    if os.environ.get("JAXFRIC_CACHE_DIR"):
+        return Path(os.environ["JAXFRIC_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxfric"
+
+
+def _compiler_id(cxx: str) -> str:
+    run = subprocess.run([cxx, "--version"], capture_output=True, text=True, timeout=60)
+    return run.stdout.splitlines()[0] if run.stdout else cxx
+
+
+def build(directory: Path | None = None) -> Path:
+    """The shared library of the kernel: the cached one, else compiled now (atomically, so
+    that processes building at once do not see a half-written file). Raises
+    `RuntimeError` with the reason when there is no compiler or compilation fails."""
+    cxx = find_compiler()
+    if cxx is None:
+        raise RuntimeError("no C++ compiler found (set CXX, or install g++ or clang++)")
+    text = source()
+    include = jax.ffi.include_dir()
+    key = hashlib.sha256("\0".join(
+        [text, jax.__version__, _jaxlib_version(),
+         cxx, _compiler_id(cxx), " ".join(FLAGS)]).encode()).hexdigest()[:16]
+    folder = Path(directory) if directory is not None else cache_dir()
+    library = folder / f"events-{key}.so"
+    if library.exists():
+        return library
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=folder) as tmp:
+        src = Path(tmp) / "events.cc"
+        src.write_text(text)
+        out = Path(tmp) / library.name
+        cmd = [cxx, *FLAGS, "-isystem", include, "-o", str(out), str(src)]
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        if run.returncode != 0:
+            last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
+            raise RuntimeError(f"{' '.join(cmd)} failed: {last}")
+        os.replace(out, library)
+    return library
+
+
+def _jaxlib_version() -> str:
+    try:
+        import jaxlib
+
+        return jaxlib.__version__
+    except Exception:  # pragma: no cover - jaxlib always comes with jax
+        return ""
+
+
+def _register() -> None:
+    library = build()
+    lib = ctypes.cdll.LoadLibrary(str(library))
+    jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(getattr(lib, SYMBOL)),
+                                platform="cpu")
+    _state["lib"] = lib  # keep it loaded
+
+
+def available() -> bool:
+    """Whether the kernel is built and registered (building and registering it on the
+    first call). With ``JAXFRIC_EVENT_KERNEL=kernel`` a failure raises; otherwise it is
+    logged once and False is returned."""
+    with _lock:
+        if "ok" not in _state:
+            try:
+                _register()
+                _state["ok"] = True
+            except Exception as err:  # no compiler, failed build, failed load
+                _state["ok"], _state["error"] = False, f"{type(err).__name__}: {err}"
+                if _mode() != "kernel":
+                    _logger.warning("jaxfric: the compiled event kernel is unavailable (%s); "
+                                    "using the pure-JAX event pass", _state["error"])
+        if not _state["ok"] and _mode() == "kernel":
+            raise RuntimeError(f"{ENV}=kernel but the event kernel is unavailable: "
+                               f"{_state['error']}")
+        return _state["ok"]
+
+
+def use_kernel(*arrays) -> bool:
+    """Whether the event pass of these arrays runs in the kernel (module docstring)."""
+    mode = _mode()
+    if mode == "jax":
+        return False
+    floats = all(jnp.result_type(a) == jnp.float64 for a in arrays)
+    if mode == "auto" and (jax.default_backend() != "cpu" or not floats):
+        return False
+    if not floats:
+        raise ValueError(f"{ENV}=kernel needs float64 inputs")
+    return available()
+
+
+def threads() -> int:
+    """The most threads the kernel uses for a batch: the CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def event_pass(x, s, reversal, x_prev, s_r, l1, stack_size: int):
+    """The records of one trajectory's events (see events.cc): ``table`` (n + 1, 4),
+    ``popped`` (n + stack_size,), ``overflow`` (), ``filled`` (n, 3), all int32. The
+    caller stops the gradients of the inputs."""
+    n = x.shape[-1]
+    i32 = jnp.int32
+    out = (
+        jax.ShapeDtypeStruct((n + 1, 4), i32),
+        jax.ShapeDtypeStruct((n + stack_size,), i32),
+        jax.ShapeDtypeStruct((), i32),
+        jax.ShapeDtypeStruct((n, 3), i32),
+    )
+    call = jax.ffi.ffi_call(TARGET, out, vmap_method="expand_dims")
+    return call(x, s, jnp.asarray(reversal, bool), x_prev, s_r,
+                jnp.asarray(l1, jnp.float64), stack_size=np.int64(stack_size),
+                threads=np.int64(threads()))
