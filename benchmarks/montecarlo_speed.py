@@ -20,8 +20,10 @@ Also timed: the float64 elementwise operations the simulation is made of (``pow`
 ``exp(p * log(x))``, ``exp``, ``log``) on B x n elements, the reason the power in
 `jaxfric._numerics._pos_pow` is written as an exponential of a logarithm.
 
-Every case is called once per round, interleaved; medians over the rounds after a warm-up
-call. The machine is shared, so only the ratios of one run mean much. Numba runs on
+Each jaxfric case runs twice, side by side: with the default event pass (the compiled CPU
+kernel, `jaxfric._kernel`) and with the pure-JAX one (``JAXFRIC_EVENT_KERNEL=jax``;
+``pure`` columns). Every case is called once per round, interleaved; medians over the rounds
+after a warm-up call. The machine is shared, so only the ratios of one run mean much. Numba runs on
 ``numba.get_num_threads()`` threads; XLA on the CPU runs these programs on one.
 
 Run ``python benchmarks/montecarlo_speed.py [--quick] [--repeats R] [--json OUT]``
@@ -47,7 +49,7 @@ import numba
 import numpy as np
 
 import jaxfric
-from jaxfric import paper
+from jaxfric import _kernel, paper
 
 
 try:
@@ -81,13 +83,23 @@ def _spread(model, B: int, rng):
     return jax.tree.unflatten(tree, batched), static
 
 
+def _pure(f, *args, **kwargs):
+    """`f` with the pure-JAX event pass (``JAXFRIC_EVENT_KERNEL=jax``): `simulate` and
+    `simulate_many` key their compilation caches on it, so both paths stay compiled."""
+    with _kernel.forced("jax"):
+        return f(*args, **kwargs)
+
+
 def _row(what, size, times, diff):
     """`times`: medians of ``many`` (`jaxfric.simulate_many`, or `simulate` for one
-    trajectory), ``vmap`` (``jax.vmap`` of `simulate`; absent for one trajectory) and
-    ``numba``."""
+    trajectory; the default event pass, the compiled kernel on the CPU), ``pure`` (the
+    same with the pure-JAX event pass), ``vmap`` (``jax.vmap`` of `simulate`; absent for
+    one trajectory) and ``numba``."""
     return {"case": what, "size": size, "jaxfric_s": times["many"],
+            "pure_jax_s": times["pure"],
             "vmap_s": times.get("vmap"), "numba_s": times["numba"],
             "ratio": times["numba"] / times["many"],
+            "ratio_pure_jax": times["numba"] / times["pure"],
             "ratio_vmap": times["numba"] / times["vmap"] if "vmap" in times else None,
             "max_abs_diff_N": diff}
 
@@ -104,11 +116,13 @@ def bench_montecarlo(B, n, repeats) -> dict:
     sets = [nbts.params_from_model(eqx.combine(jax.tree.map(lambda a, j=j: a[j], P), static))
             for j in range(B)]
     times = _median_times({"many": lambda: jaxfric.simulate_many(models, t, x),
+                           "pure": lambda: _pure(jaxfric.simulate_many, models, t, x),
                            "vmap": lambda: run(P),
                            "numba": lambda: nbts.simulate_numba_params(sets, t, x)}, repeats)
     F = np.asarray(jaxfric.simulate_many(models, t, x))
     diff = float(np.max(np.abs(F - nbts.simulate_numba_params(sets, t, x))))
-    diff = max(diff, float(np.max(np.abs(F - np.asarray(run(P))))))
+    diff = max(diff, float(np.max(np.abs(F - np.asarray(run(P))))),
+               float(np.max(np.abs(F - np.asarray(_pure(jaxfric.simulate_many, models, t, x))))))
     return _row(f"Monte-Carlo: {B} parameter sets (5 % spread), one trajectory",
                 {"B": B, "n": n}, times, diff)
 
@@ -122,6 +136,8 @@ def bench_batch(B, n, repeats) -> dict:
     run = jax.jit(jax.vmap(lambda t, x: jaxfric.simulate(model, t, x, max_reversals=bound)))
     params = nbts.params_from_model(model)
     times = _median_times({"many": lambda: jaxfric.simulate_many(model, T, X, model_axis=None),
+                           "pure": lambda: _pure(jaxfric.simulate_many, model, T, X,
+                                                 model_axis=None),
                            "vmap": lambda: run(Tj, Xj),
                            "numba": lambda: nbts.simulate_numba_batch(params, T, X)}, repeats)
     F = np.asarray(jaxfric.simulate_many(model, T, X, model_axis=None))
@@ -135,9 +151,11 @@ def bench_single(n, repeats) -> dict:
     t, x = mixed_path(n)
     params = nbts.params_from_model(model)
     times = _median_times({"many": lambda: jaxfric.simulate(model, t, x),
+                           "pure": lambda: _pure(jaxfric.simulate, model, t, x),
                            "numba": lambda: nbts.simulate_numba(params, t, x)}, repeats)
-    diff = float(np.max(np.abs(np.asarray(jaxfric.simulate(model, t, x))
-                               - nbts.simulate_numba(params, t, x))))
+    F = np.asarray(jaxfric.simulate(model, t, x))
+    diff = max(float(np.max(np.abs(F - nbts.simulate_numba(params, t, x)))),
+               float(np.max(np.abs(F - np.asarray(_pure(jaxfric.simulate, model, t, x))))))
     return _row("one trajectory (simulate)", {"B": 1, "n": n}, times, diff)
 
 
@@ -185,15 +203,18 @@ def main(argv=None) -> int:
     rows += [bench_single(m, repeats) for m in singles]
     ops = bench_ops(B, n, repeats)
     print(f"two-state simulate against Numba prange ({numba.get_num_threads()} threads), "
-          f"medians of {repeats} rounds; ratio = Numba time / jaxfric time (target >= 2)")
-    print(f"{'case':62s} {'B':>5s} {'n':>8s} {'jaxfric s':>10s} {'vmap s':>8s} "
-          f"{'Numba s':>9s} {'ratio':>6s} {'(vmap)':>6s} {'max |dF| N':>10s}")
+          f"medians of {repeats} rounds; ratio = Numba time / jaxfric time (target >= 2); "
+          "jaxfric: the compiled event kernel (default), pure: the pure-JAX event pass")
+    print(f"{'case':62s} {'B':>5s} {'n':>8s} {'jaxfric s':>10s} {'pure s':>8s} "
+          f"{'vmap s':>8s} {'Numba s':>9s} {'ratio':>6s} {'(pure)':>6s} {'(vmap)':>6s} "
+          f"{'max |dF| N':>10s}")
     for r in rows:
         vm = "-" if r["vmap_s"] is None else f"{r['vmap_s']:.4f}"
         rv = "-" if r["ratio_vmap"] is None else f"{r['ratio_vmap']:.2f}"
         print(f"{r['case']:62s} {r['size']['B']:5d} {r['size']['n']:8.0e} "
-              f"{r['jaxfric_s']:10.4f} {vm:>8s} {r['numba_s']:9.4f} {r['ratio']:6.2f} "
-              f"{rv:>6s} {r['max_abs_diff_N']:10.2g}")
+              f"{r['jaxfric_s']:10.4f} {r['pure_jax_s']:8.4f} {vm:>8s} {r['numba_s']:9.4f} "
+              f"{r['ratio']:6.2f} {r['ratio_pure_jax']:6.2f} {rv:>6s} "
+              f"{r['max_abs_diff_N']:10.2g}")
     print(f"\nfloat64 elementwise operations on {B} x {n} elements (ns per element):")
     for o in ops:
         extra = (f"  (max relative difference to the power: {o['max_rel_diff_to_power']:.2g})"

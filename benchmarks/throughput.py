@@ -91,7 +91,7 @@ import numpy as np
 
 import fitting
 import jaxfric
-from jaxfric import paper
+from jaxfric import _kernel, paper
 
 
 try:
@@ -211,6 +211,18 @@ def jax_models() -> dict:
     return models
 
 
+#: The two-state model with its event pass in pure JAX (``JAXFRIC_EVENT_KERNEL=jax``), timed
+#: beside the default (the compiled kernel on the CPU, `jaxfric._kernel`).
+PURE = "TwoState (pure JAX)"
+
+
+def _pure(f, *args, **kwargs):
+    """`f` traced and run with the pure-JAX event pass (`simulate` keys its compilation
+    cache on the choice, so both stay compiled side by side)."""
+    with _kernel.forced("jax"):
+        return f(*args, **kwargs)
+
+
 def bench_single(sizes, repeats, log) -> dict:
     """Section 1: one long trajectory per size, every model, plus the Numba baseline."""
     params = nbts.params_from_model(paper.two_state())
@@ -220,6 +232,7 @@ def bench_single(sizes, repeats, log) -> dict:
         tj, xj = jnp.asarray(t), jnp.asarray(x)
         cases = {name: (lambda m=m, tj=tj, xj=xj: jaxfric.simulate(m, tj, xj))
                  for name, m in jax_models().items()}
+        cases[PURE] = lambda tj=tj, xj=xj: _pure(jaxfric.simulate, paper.two_state(), tj, xj)
         cases["Numba two-state"] = lambda t=t, x=x: nbts.simulate_numba(params, t, x)
         log(f"  single n={n:.0e}: {', '.join(cases)}")
         res = measure(cases, repeats)
@@ -250,6 +263,19 @@ def _batch_paths(B, n, rng) -> tuple[np.ndarray, np.ndarray]:
     return T, X
 
 
+def _batch_agreement(kernel, pure, numba) -> dict:
+    """Max |dF| (N) of the default path against Numba and against the pure-JAX path."""
+    kernel = np.asarray(kernel)
+    return {"max_abs_diff_N": float(np.max(np.abs(kernel - numba))),
+            "kernel_vs_pure_max_abs_diff_N": float(np.max(np.abs(kernel - np.asarray(pure))))}
+
+
+def _batched(bound):
+    """``jax.jit(jax.vmap(simulate))`` over trajectories, with the static reversal bound."""
+    return jax.jit(lambda m, T, X: jax.vmap(
+        lambda t, x: jaxfric.simulate(m, t, x, max_reversals=bound))(T, X))
+
+
 def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
     """Section 2: vmapped jaxfric against the Numba prange batch, per B."""
     model = paper.two_state()
@@ -262,10 +288,9 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
         # Under vmap the positions are traced, so the static bound on the reversals that
         # `simulate` computes itself on concrete data is passed, as a user would.
         bound = max(jaxfric.reversal_bound(T[j], X[j]) for j in range(B))
-        batched = jax.jit(lambda m, T, X, bound=bound: jax.vmap(
-            lambda t, x: jaxfric.simulate(m, t, x, max_reversals=bound))(T, X))
         spec = jax.ShapeDtypeStruct((B, n), dtype)
-        compiled, t_lower, t_compile = _lower_compile(batched, model, spec, spec)
+        compiled, t_lower, t_compile = _lower_compile(_batched(bound), model, spec, spec)
+        pure, _, _ = _pure(_lower_compile, _batched(bound), model, spec, spec)
         xla_bytes = _xla_bytes(compiled)
         host_in = 2 * B * n * 8  # NumPy T and X
         numba_bytes = host_in + B * n * 8  # inputs + output
@@ -286,6 +311,7 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
             if run_jax:
                 Tj, Xj = jnp.asarray(T), jnp.asarray(X)
                 cases["jaxfric vmap"] = lambda c=compiled, T=Tj, X=Xj: c(model, T, X)
+                cases["pure JAX vmap"] = lambda c=pure, T=Tj, X=Xj: c(model, T, X)
             if run_numba:
                 cases["Numba prange"] = (
                     lambda T=T, X=X: nbts.simulate_numba_batch(params, T, X))
@@ -293,7 +319,8 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
             + (f" ({row.get('jax_skipped')})" if not run_jax else ""))
         if cases:
             res = measure(cases, repeats)
-            for name, key in (("jaxfric vmap", "jax"), ("Numba prange", "numba")):
+            for name, key in (("jaxfric vmap", "jax"), ("pure JAX vmap", "jax_pure"),
+                              ("Numba prange", "numba")):
                 if name in res:
                     r = res[name]
                     row[f"{key}_median_s"] = r["median_s"]
@@ -301,9 +328,8 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
                     row[f"{key}_ns_per_traj_step"] = 1e9 * r["median_s"] / (B * n)
                     row[f"{key}_times_s"] = r["times_s"]
             if run_jax and run_numba:
-                diff = np.max(np.abs(np.asarray(compiled(model, Tj, Xj))
-                                     - nbts.simulate_numba_batch(params, T, X)))
-                row["max_abs_diff_N"] = float(diff)
+                row.update(_batch_agreement(compiled(model, Tj, Xj), pure(model, Tj, Xj),
+                                            nbts.simulate_numba_batch(params, T, X)))
             cases.clear()
             if run_jax:
                 del Tj, Xj
@@ -380,6 +406,18 @@ def bench_lm(n, repeats, log) -> dict:
         "iteration_s": (r_hi["median_s"] - r_lo["median_s"]) / extra,
         "iteration_s_median_of_rounds": statistics.median(per_round),
     }
+
+
+def bench_lm_both(n, repeats, log) -> tuple[dict, dict]:
+    """Section 5 with the default event pass (the kernel on the CPU), then with the pure-JAX
+    one. The fits' programs do not key their caches on the choice: each is traced afresh."""
+    jax.clear_caches()
+    default = bench_lm(n, repeats, log)
+    jax.clear_caches()
+    log("  (pure-JAX event pass)")
+    pure = _pure(bench_lm, n, repeats, log)
+    jax.clear_caches()
+    return default, pure
 
 
 def bench_fit_batch(sizes_B, n, max_steps, repeats, log) -> dict:
@@ -555,7 +593,7 @@ def main(argv=None) -> int:
     log("section 4: gradients")
     results["grad"] = bench_grad(cfg["grad_n"], reps, log)
     log("section 5: one LM iteration")
-    results["lm"] = bench_lm(cfg["lm_n"], reps, log)
+    results["lm"], results["lm_pure_jax"] = bench_lm_both(cfg["lm_n"], reps, log)
     log("section 6: batch fits")
     results["fit_batch"] = bench_fit_batch(cfg["fit_batch_B"], cfg["fit_batch_n"],
                                            cfg["fit_batch_max_steps"], min(reps, 3), log)

@@ -11,6 +11,9 @@ GOAL_NUMBA = 2.0  # jaxfric at least this many times as fast as Numba
 GOAL_GMS200 = 5.0  # two-state at least this many times as fast as GMS-200
 GOAL_LM_S = 0.1  # s per LM iteration on 1e5 samples
 GOAL_COMPILE_S = 5.0  # s
+GOAL_BATCH_B = 256  # issue 39: batch of 256 x 1e4 at least GOAL_NUMBA x Numba prange
+GOAL_LM_KERNEL = 1.5  # issue 39: LM iteration with the kernel this many times as fast as pure JAX
+PURE = "TwoState (pure JAX)"
 
 
 # ---------------------------------------------------------------------------------------
@@ -23,6 +26,44 @@ def _single(rows, impl, n):
         if r["impl"] == impl and r["n"] == n:
             return r["median_s"]
     return None
+
+
+def _pure_jax_ratios(results: dict, cfg: dict) -> list:
+    """The ratios of the pure-JAX event pass (``JAXFRIC_EVENT_KERNEL=jax``), when timed."""
+    ratios, single = [], results["single"]["rows"]
+    for n in cfg["single_n"]:
+        ts, nb, pure = (_single(single, k, n) for k in ("TwoState", "Numba two-state", PURE))
+        if pure is not None:
+            ratios.append({"what": "Numba time / TwoState (pure JAX) time (single)", "n": n,
+                           "ratio": nb / pure})
+            ratios.append({"what": "TwoState (pure JAX) time / TwoState time (single)",
+                           "n": n, "ratio": pure / ts})
+    for r in results["batch"]["rows"]:
+        if "jax_pure_median_s" in r and "numba_median_s" in r:
+            ratios.append({"what": "Numba time / pure-JAX vmap time (batch)", "B": r["B"],
+                           "n": r["n"], "ratio": r["numba_median_s"] / r["jax_pure_median_s"]})
+    lm, lm_pure = results["lm"], results.get("lm_pure_jax")
+    if lm_pure is not None:
+        ratios.append({"what": "pure-JAX LM iteration time / kernel LM iteration time",
+                       "n": lm["n"], "ratio": lm_pure["iteration_s"] / lm["iteration_s"]})
+    return ratios
+
+
+def _kernel_goals(results: dict, batch_both: list, goal) -> None:
+    """Issue 39's goals: the batch of 256 and the LM iteration against pure JAX."""
+    at_b = [r for r in batch_both if r["B"] == GOAL_BATCH_B]
+    if at_b:
+        ratio = at_b[0]["numba_median_s"] / at_b[0]["jax_median_s"]
+        goal(f"two-state simulate >= 2x Numba (batch B = {GOAL_BATCH_B})", ratio, GOAL_NUMBA,
+             ratio >= GOAL_NUMBA, f"B = {GOAL_BATCH_B}, n = {at_b[0]['n']:.0e}; Numba "
+             f"prange on {results['machine']['numba_threads']} threads", "x")
+    lm, lm_pure = results["lm"], results.get("lm_pure_jax")
+    if lm_pure is not None:
+        ratio = lm_pure["iteration_s"] / lm["iteration_s"]
+        ok = None if lm["n"] != LM_TARGET_N else ratio >= GOAL_LM_KERNEL
+        goal("LM iteration on 1e5 samples >= 1.5x faster with the kernel than pure JAX",
+             ratio, GOAL_LM_KERNEL, ok, f"n = {lm['n']:.0e}; pure-JAX iteration time / "
+             "kernel iteration time (the two fits timed one after the other)", "x")
 
 
 def ratios_and_goals(results: dict, cfg: dict) -> tuple[list, list]:
@@ -44,6 +85,7 @@ def ratios_and_goals(results: dict, cfg: dict) -> tuple[list, list]:
     for r in batch_both:
         ratios.append({"what": "Numba time / jaxfric vmap time (batch)", "B": r["B"],
                        "n": r["n"], "ratio": r["numba_median_s"] / r["jax_median_s"]})
+    ratios.extend(_pure_jax_ratios(results, cfg))
 
     def goal(name, measured, target, ok, detail, unit=""):
         status = "n/a" if ok is None else ("PASS" if ok else "MISS")
@@ -64,6 +106,7 @@ def ratios_and_goals(results: dict, cfg: dict) -> tuple[list, list]:
     else:
         goal("two-state simulate >= 2x Numba (batch)", None, GOAL_NUMBA, None,
              "no batch size within the memory budget", "x")
+    _kernel_goals(results, batch_both, goal)
     r_g = _single(single, "GMS-200", n_max) / _single(single, "TwoState", n_max)
     goal("two-state >= 5x faster than GMS-200", r_g, GOAL_GMS200, r_g >= GOAL_GMS200,
          f"n = {n_max:.0e}; ratio = GMS-200 time / TwoState time", "x")
@@ -140,12 +183,15 @@ def report(results: dict) -> str:
     out.append(f"Batch (n = {b['rows'][0]['n']:.0e} steps each; memory budget "
                f"{b['budget_bytes'] / 2**30:.1f} GiB)" if b["rows"] else "Batch: none")
     out.append(table(
-        ["B", "jax vmap s", "jax ns/traj-step", "Numba s", "Numba ns/traj-step",
-         "Numba/jax", "jax GiB", "compile s", "note"],
+        ["B", "jax vmap s", "jax ns/traj-step", "pure JAX s", "Numba s", "Numba ns/traj-step",
+         "Numba/jax", "Numba/pure", "jax GiB", "compile s", "note"],
         [[str(r["B"]), _f(r.get("jax_median_s"), ".4f"), _f(r.get("jax_ns_per_traj_step"), ".1f"),
+          _f(r.get("jax_pure_median_s"), ".4f"),
           _f(r.get("numba_median_s"), ".4f"), _f(r.get("numba_ns_per_traj_step"), ".1f"),
           _f(r["numba_median_s"] / r["jax_median_s"], ".3f")
           if "jax_median_s" in r and "numba_median_s" in r else "-",
+          _f(r["numba_median_s"] / r["jax_pure_median_s"], ".3f")
+          if "jax_pure_median_s" in r and "numba_median_s" in r else "-",
           _gib(r.get("jax_footprint_bytes")), _f(r["lower_s"] + r["compile_s"], ".2f"),
           r.get("jax_skipped", "") or r.get("numba_skipped", "")] for r in b["rows"]]))
     out.append("")
@@ -167,7 +213,10 @@ def report(results: dict) -> str:
         ["fit", "median s", "compile s"],
         [[f"max_steps={f['max_steps']}", _f(f["median_s"], ".4f"), _f(f["compile_s"], ".2f")]
          for f in lm["fits"]]
-        + [["one iteration (difference / extra steps)", _f(lm["iteration_s"], ".4f"), ""]]))
+        + [["one iteration (difference / extra steps)", _f(lm["iteration_s"], ".4f"), ""]]
+        + ([["one iteration, pure-JAX event pass", _f(results["lm_pure_jax"]["iteration_s"],
+                                                       ".4f"), ""]]
+           if "lm_pure_jax" in results else [])))
     out.append("")
     fb = results["fit_batch"]
     out.append("Batch fits (fitting.fit_batch, two-state, all parameters free)")
@@ -198,7 +247,7 @@ def report(results: dict) -> str:
                      [[r["what"], f"B={r['B']}, n={r['n']:.0e}" if "B" in r else f"n={r['n']:.0e}",
                        _f(r["ratio"], ".3f")] for r in results["ratios"]]))
     out.append("")
-    out.append("Goals (issue 7)")
+    out.append("Goals (issues 7 and 39)")
     out.append(table(["goal", "measured", "target", "status", "detail"],
                      [[gl["goal"], _f(gl["measured"], ".3g") + gl["unit"]
                        if gl["measured"] is not None else "-",

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike
 
+from . import _kernel
 from ._compile import jit
 from ._models._base import AbstractFrictionModel, SimResult
 from .motion import auto_deadband, make_motion, play, played_velocity, reversal_bound
@@ -61,7 +62,9 @@ def _check_values(name: str, a) -> None:
 
 @jit
 def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
-         a=None) -> SimResult:
+         a=None, event_pass: str = "auto") -> SimResult:
+    """`event_pass` (``JAXFRIC_EVENT_KERNEL``, read when tracing; `jaxfric._kernel`) is a
+    static argument only so that changing it takes effect at the next call."""
     return model._simulate(make_motion(t, x, v, max_reversals, load, a))
 
 
@@ -210,7 +213,7 @@ def simulate(
     x, v = apply_deadband(x, v, deadband, t)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
-    result = _run(model, t, x, v, max_reversals, load, a)
+    result = _run(model, t, x, v, max_reversals, load, a, _kernel.mode())
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "
@@ -238,7 +241,7 @@ def _checked_batch_input(u, t, name):
 
 @jit
 def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True, load=None,
-              a=None) -> SimResult:
+              a=None, event_pass: str = "auto") -> SimResult:
     """`_run` over a batch, `chunk` items at a time (``lax.map`` with ``batch_size``).
     Without `full`, the parts are left out (``{}``): writing four more ``(B, n)`` arrays
     out of the map cost a third more time on the benchmark's Monte-Carlo."""
@@ -332,7 +335,7 @@ def simulate_many(
     models = jax.tree.map(_strong, models)
     max_reversals = _max_reversals(models, t, x, v, max_reversals)
     result = _run_many(models, t, x, v, max_reversals, model_axis, operator.index(chunk),
-                       full_output, load, a)
+                       full_output, load, a, _kernel.mode())
     if not isinstance(result.overflow, jax.core.Tracer) and int(jnp.sum(result.overflow)) > 0:
         warnings.warn(
             f"the memory stack overflowed in {int(jnp.sum(result.overflow > 0))} batch "

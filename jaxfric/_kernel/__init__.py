@@ -9,11 +9,14 @@ else ``$XDG_CACHE_HOME/jaxfric``, else ``~/.cache/jaxfric``), under a name keyed
 of the source, the jaxlib version and the compiler, loaded with ``ctypes`` and registered
 once per process with `jax.ffi.register_ffi_target`.
 
-**When it is used** (`use_kernel`): on the CPU backend, for float64 inputs. The
-environment variable ``JAXFRIC_EVENT_KERNEL`` chooses: ``jax`` always uses the pure-JAX
-event loop (the path on GPU/TPU); ``kernel`` requires the kernel (a failed build raises);
-unset or ``auto`` uses the kernel when it builds, else logs one line (logger ``jaxfric``)
-and uses the pure-JAX loop.
+**When it is used** (`use_kernel`, when a program is traced): on the CPU backend, for
+float64 inputs. The environment variable ``JAXFRIC_EVENT_KERNEL`` chooses: ``jax`` always
+uses the pure-JAX event loop (the path on GPU/TPU); ``kernel`` requires the kernel (a
+failed build raises); unset or ``auto`` uses the kernel when it builds, else logs one line
+(logger ``jaxfric``) and uses the pure-JAX loop. `jaxfric.simulate` and
+`jaxfric.simulate_many` take the variable's value as part of their compilation cache key,
+so a change takes effect at their next call; other compiled programs (a fit's) keep the
+choice they were traced with.
 
 Under ``jax.vmap`` the call receives the batch (``vmap_method="expand_dims"``: an input
 not batched keeps a dimension of 1, which the kernel broadcasts rather than copies) and
@@ -21,6 +24,7 @@ loops over it, on several threads when the batch is large. Its outputs are integ
 its inputs are on stopped gradients, so ``grad`` and ``jacfwd`` never differentiate it.
 """
 
+import contextlib
 import ctypes
 import hashlib
 import logging
@@ -47,11 +51,28 @@ _lock = threading.Lock()
 _state: dict = {}  # "ok": bool once decided; "error": why not
 
 
-def _mode() -> str:
-    mode = os.environ.get(ENV, "auto").strip().lower() or "auto"
-    if mode not in ("auto", "jax", "kernel"):
-        raise ValueError(f"{ENV} must be 'auto', 'jax' or 'kernel', got {mode!r}")
-    return mode
+def mode() -> str:
+    """``JAXFRIC_EVENT_KERNEL``: ``auto`` (unset), ``jax`` or ``kernel``."""
+    value = os.environ.get(ENV, "auto").strip().lower() or "auto"
+    if value not in ("auto", "jax", "kernel"):
+        raise ValueError(f"{ENV} must be 'auto', 'jax' or 'kernel', got {value!r}")
+    return value
+
+
+@contextlib.contextmanager
+def forced(value: str):
+    """Set ``JAXFRIC_EVENT_KERNEL`` to `value` (``auto``, ``jax``, ``kernel``) inside the
+    block (for benchmarks and tests: it applies to what is traced there)."""
+    old = os.environ.get(ENV)
+    os.environ[ENV] = value
+    try:
+        mode()
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(ENV, None)
+        else:
+            os.environ[ENV] = old
 
 
 def source() -> str:
@@ -138,10 +159,10 @@ def available() -> bool:
                 _state["ok"] = True
             except Exception as err:  # no compiler, failed build, failed load
                 _state["ok"], _state["error"] = False, f"{type(err).__name__}: {err}"
-                if _mode() != "kernel":
+                if mode() != "kernel":
                     _logger.warning("jaxfric: the compiled event kernel is unavailable (%s); "
                                     "using the pure-JAX event pass", _state["error"])
-        if not _state["ok"] and _mode() == "kernel":
+        if not _state["ok"] and mode() == "kernel":
             raise RuntimeError(f"{ENV}=kernel but the event kernel is unavailable: "
                                f"{_state['error']}")
         return _state["ok"]
@@ -149,11 +170,11 @@ def available() -> bool:
 
 def use_kernel(*arrays) -> bool:
     """Whether the event pass of these arrays runs in the kernel (module docstring)."""
-    mode = _mode()
-    if mode == "jax":
+    chosen = mode()
+    if chosen == "jax":
         return False
     floats = all(jnp.result_type(a) == jnp.float64 for a in arrays)
-    if mode == "auto" and (jax.default_backend() != "cpu" or not floats):
+    if chosen == "auto" and (jax.default_backend() != "cpu" or not floats):
         return False
     if not floats:
         raise ValueError(f"{ENV}=kernel needs float64 inputs")
