@@ -311,7 +311,8 @@ class TwoState(AbstractFrictionModel):
             overflow=rec.overflow + dropped,
         )
 
-    # The stages of `_simulate`, also timed one by one by benchmarks/profile_two_state.py.
+    # The stages of `_simulate`, also timed one by one by
+    # benchmarks/profiling/profile_two_state.py.
 
     def _stage_events(self, motion: Motion) -> tuple[Array, "_Events"]:
         """The Stribeck values ``S`` of every sample and the records of the event pass."""

@@ -1,23 +1,24 @@
 """Where the time of one two-state simulation goes: cumulative stages, side by side.
 
-`TwoState._simulate` runs in stages (see docs/benchmark_notes.md), each a method of the model
-that this script calls in the same order: the motion's per-sample inputs (velocity,
-direction, last direction) and the Stribeck values; the event pass (the sequential
-``lax.while_loop`` over blocks and events, on stopped gradients); the forward fill of its
-records (which entry each sample uses); the branch-start forces (evaluated on the list of
-reversals, then gathered per sample); the branch force ``F_h`` and ``gamma`` (the shape
-function at every sample); and the friction lag (its coefficients and the linear
-recurrence), which completes the simulation. Each row below is a separately compiled
-function that runs the stages up to and including that one and returns the sum of that
-stage's outputs (so that writing them to memory is not timed; the last row is the
-simulation itself and writes the force), and the difference between consecutive rows is
-the cost of a stage, approximately (the compiler may fuse or overlap stages differently
-when they end a function than inside the whole simulation). Also timed: the
-whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
+`TwoState._simulate` runs in stages (see docs/benchmark_notes.md), each a method of the
+model that this script calls in the same order: the motion's per-sample inputs (velocity,
+direction, last direction) and the Stribeck values; the event pass (sequential, on stopped
+gradients: the compiled CPU kernel of `jaxfric._kernel` by default, the pure-JAX
+``lax.while_loop`` over blocks and events with ``JAXFRIC_EVENT_KERNEL=jax``); the forward
+fill of its records (which entry each sample uses; the kernel returns it filled); the
+branch-start forces (evaluated on the list of reversals, then gathered per sample); the
+branch force ``F_h`` and ``gamma`` (the shape function at every sample); and the friction
+lag (its coefficients and the linear recurrence), which completes the simulation. Each row
+below is a separately compiled function that runs the stages up to and including that one
+and returns the sum of that stage's outputs (so that writing them to memory is not timed;
+the last row is the simulation itself and writes the force), and the difference between
+consecutive rows is the cost of a stage, approximately (the compiler may fuse or overlap
+stages differently when they end a function than inside the whole simulation). Also timed:
+the whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
 iteration needs).
 
-Run ``python benchmarks/profile_two_state.py [--n N] [--batch B | --params B] [--repeats R]
-[--json OUT]``.
+Run ``python benchmarks/profiling/profile_two_state.py [--n N] [--batch B | --params B]
+[--repeats R] [--json OUT]``; the JSON's ``meta.event_pass`` says which event pass ran.
 All cases are called once in turn per round (interleaved); medians over the rounds, in ns
 per sample, on the mixed motion of `benchmarks/throughput.py` (`benchmarks/motions.py`).
 With ``--batch B`` the stages run under ``jax.vmap`` over B such motions with random
@@ -30,21 +31,24 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxfric import paper
+from jaxfric import _kernel, paper
 from jaxfric._models import two_state
 from jaxfric.motion import make_motion, reversal_bound
 
 
 try:
     from benchmarks.motions import mixed_path
-except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
+except ImportError:  # run as a script: benchmarks/profiling/ is sys.path[0]
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from motions import mixed_path
 
 
@@ -99,7 +103,7 @@ def _stages(model, T, X, bound, param_sets=False):
 
     names = [
         "1. motion inputs + Stribeck values",
-        "2. + event pass (while_loop)",
+        "2. + event pass",
         "3. + forward fill of the event records",
         "4. + branch-start forces (reversal list)",
         "5. + branch force F_h, gamma (shape)",
@@ -168,6 +172,8 @@ def main(argv=None):
         meta = {"n": args.n, "batch": args.batch, "params": args.params,
                 "repeats": args.repeats,
                 "jax": jax.__version__,
+                "event_pass": ("kernel" if _kernel.mode() != "jax" and _kernel.available()
+                               else "pure JAX"),
                 "devices": [str(d) for d in jax.devices()]}
         with open(args.json, "w") as fh:
             json.dump({"meta": meta, "rows": rows}, fh, indent=2)
