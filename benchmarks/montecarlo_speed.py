@@ -29,7 +29,7 @@ after a warm-up call. The machine is shared, so only the ratios of one run mean 
 Run ``python benchmarks/montecarlo_speed.py [--quick] [--repeats R] [--json OUT]``
 (defaults: B = 256, n = 1e4, single n = 1e5 and 1e6; ``--quick``: B = 8, n = 2000, single
 n = 2000, 1 repeat, a smoke test). It prints a table and writes the JSON that
-``benchmarks/make_benchmarks_md.py --montecarlo OUT`` renders into BENCHMARKS.md.
+``benchmarks/make_validation.py`` renders into docs/validation.md.
 """
 
 from __future__ import annotations

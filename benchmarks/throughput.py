@@ -2,8 +2,8 @@
 
 Everything is measured side by side in one run, on one machine, so that every ratio is a
 pair measured under the same conditions. Prints tables; ``--json OUT`` writes every number
-(plus the machine's facts) for ``benchmarks/make_benchmarks_md.py``, which writes
-BENCHMARKS.md.
+(plus the machine's facts) for ``benchmarks/make_validation.py``, which writes
+docs/validation.md.
 
 Run ``python benchmarks/throughput.py [--quick] [--repeats N] [--json OUT]``.
 ``--quick`` is a smoke run (about a minute: small sizes, fewer repeats) that exercises every

@@ -1,6 +1,5 @@
 """What the throughput bench (`benchmarks/throughput.py`) judges and prints: its goals, the
-speed ratios measured side by side, and the plain-text tables of a results dict (also the
-text of `benchmarks/make_benchmarks_md.py`)."""
+speed ratios measured side by side, and the plain-text tables of a results dict."""
 
 from __future__ import annotations
 
@@ -165,7 +164,7 @@ def _gib(b):
 
 
 def report(results: dict) -> str:
-    """All tables of a results dict (also used by make_benchmarks_md for the text)."""
+    """All tables of a results dict."""
     out = []
     s = results["single"]
     out.append("Single trajectory (jaxfric.simulate; Numba: simulate_numba), median of "

@@ -34,7 +34,7 @@ def _pos_pow(x, p):
     """``x ** p`` for ``x > 0``, differentiated from its own value: ``d/dx = p * y / x``
     and ``d/dp = y * log(x)``. JAX's rule for ``pow`` computes ``x ** (p - 1)``, a second
     power (on the CPU a float64 power costs about ten times an exponential,
-    benchmarks/xla_costs.py), and a third for a second derivative; the shapes' ``kappa``
+    benchmarks/profiling/xla_costs.py), and a third for a second derivative; the shapes' ``kappa``
     is a derivative, fits take another. The price: a second derivative is formed as
     ``p * (p * y / x) / x - p * y / x**2``, which is exact only up to rounding (not
     exactly 0 for ``p = 1``) and can overflow or give 0/0 for bases near float32's

@@ -1,6 +1,6 @@
 """Where the time of one two-state simulation goes: cumulative stages, side by side.
 
-`TwoState._simulate` runs in stages (see docs/benchmark_notes.md), each a method of the
+`TwoState._simulate` runs in stages (see docs/speed.md), each a method of the
 model that this script calls in the same order: the motion's per-sample inputs (velocity,
 direction, last direction) and the Stribeck values; the event pass (sequential, on stopped
 gradients: the compiled CPU kernel of `jaxfric._kernel` by default, the pure-JAX

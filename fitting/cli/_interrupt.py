@@ -3,10 +3,9 @@
 Python runs a signal handler only in the main thread, between two bytecodes. While the
 main thread waits in compiled code (XLA compiling the fit's chunk, a chunk of solver steps
 running), a Ctrl-C waits with it (`fitting._chunked` keeps a chunk to about a second), and
-an interpreter that then finalises while XLA's threads are still busy can crash: before
-this module, one of nine Ctrl-C sent 0.5-8 s into a two-state fit of 1e5 samples ended
-with SIGSEGV (exit -11, not 130; `benchmarks/interrupt_latency.py`, its
-``interrupt_latency_before.json``). So, when the command line is the process (`arm`):
+an interpreter that then finalises while XLA's threads are still busy can crash with
+SIGSEGV (exit -11, not 130; `benchmarks/profiling/interrupt_latency.py` measures how a
+command ends). So, when the command line is the process (`arm`):
 
 - the handlers raise as before (`KeyboardInterrupt`; for SIGTERM, `terminate` raises
   `Terminated`): each `fitting.cli._output.atomic_file` being written removes its
