@@ -30,7 +30,7 @@ Targets (issue 19): warm >= 5x, first call >= 2.5x, RMSE within 1 % of scipy's.
 
 ``--big`` adds 1e6 samples (minutes); ``--quick`` fits 2000 samples with both solvers cut
 short (8 steps, 10 evaluations: a smoke test of the script for
-tests/test_benchmark_scripts.py, not a measurement). Writes benchmarks/fit_speed.json
+tests/project/test_benchmark_scripts.py, not a measurement). Writes benchmarks/fit_speed.json
 unless ``--json`` says otherwise.
 """
 

@@ -8,7 +8,7 @@ Reads, relative to the repository root: ``benchmarks/diagnosis_bench.json``,
 ``benchmarks/diagnose_speed.json``, ``benchmarks/compiler_options.json`` and the real-data
 results ``docs/figures/emps_diagnosis.json`` and ``docs/figures/tribometer.json``. A
 missing file gives its section a line saying so. ``--check`` writes nothing and exits 1
-when the committed page differs from what the JSONs give (``tests/test_validation_page.py``
+when the committed page differs from what the JSONs give (``tests/project/test_validation_page.py``
 does the same). Units: s, ns, N.
 """
 

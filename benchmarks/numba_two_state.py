@@ -8,7 +8,7 @@ every division is guarded explicitly, as in jaxfric) and no ``fastmath`` (which 
 reorder the float arithmetic and break the < 1e-9 N agreement). It exists to measure jaxfric against
 (``benchmarks/throughput.py``). ``python benchmarks/numba_two_state.py --check`` checks
 that both give the same forces to < 1e-9 N (and the same overflow counts, and the same
-shape as `jaxfric.PaperShape`), exiting non-zero otherwise; ``tests/test_numba_baseline.py``
+shape as `jaxfric.PaperShape`), exiting non-zero otherwise; ``tests/core/test_numba_baseline.py``
 runs it.
 
 Units are SI: t [s], x [m], v [m/s], forces [N], xi [m/N].

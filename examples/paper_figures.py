@@ -1,7 +1,7 @@
 """Reproduce the simulation results of the paper (Sec. 6.1, Figs. 5-8) with jaxfric.
 
 Each figure has a computing function that returns its curves and the numbers checked in
-``tests/test_paper_results.py`` (SI units; plots in um and N):
+``tests/core/test_paper_results.py`` (SI units; plots in um and N):
 
 * `presliding_hysteresis` (Fig. 5): a slow constant-speed triangle in presliding; the
   two-state model's branches bend smoothly, the 5-element GMS (Table 2) is piecewise linear.

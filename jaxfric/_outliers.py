@@ -27,7 +27,7 @@ ripple sampled a few times per period) looks like a spike to the force column al
 the rules also look at the motion and at the residuals around (see `spikes`); they find
 none in the demo's data, in synthetic records with cogging or inertia sampled coarsely,
 in the measured records of ../shared/data, nor in 1.9e5 samples of Gaussian noise on
-strokes (tests/test_reliability.py).
+strokes (tests/cli/test_reliability.py).
 """
 
 import numpy as np

@@ -4,7 +4,7 @@ A column whose unit the file does not declare is taken as SI (s, m or rad, N or 
 unit mistakes leave numbers that are possible but implausible for a friction measurement;
 `unit_warnings` names them with the likely unit and the option that fixes it. Declaring a
 unit (in the header, ``--units``, ``units=``) confirms it and silences the rule for that
-column. The rules and thresholds (documented in docs/data.md, tested in tests/test_units.py):
+column. The rules and thresholds (documented in docs/data.md, tested in tests/core/test_units.py):
 
 =====  ===================================================================================
 t      median sampling interval >= `SLOW_SAMPLING_S` (0.5 s, below 2 Hz): ms read as s

@@ -126,3 +126,22 @@ def load_example(name: str):
     sys.modules[key] = module  # dataclasses look their module up by name
     spec.loader.exec_module(module)
     return module
+
+
+def standstill_motion(seed: int, quantum: float = 0.0):
+    """Moves of 2 mm separated by 1 s standstills, sampled at 1 ms, with 1 um position
+    noise (and, if `quantum` > 0, encoder quantisation): the true reversals are known (3)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 7.0, 1e-3)
+    knots_t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
+    knots_x = [0.0, 2e-3, 2e-3, 0.0, 0.0, 2e-3, 2e-3, 0.0]
+    x_true = np.interp(t, knots_t, knots_x)
+    x = x_true + 1e-6 * rng.standard_normal(t.size)
+    if quantum:
+        x = quantum * np.round(x / quantum)
+    return t, x, x_true
+
+
+def count_reversals(x):
+    from jaxfric.motion import reversals
+    return int(np.count_nonzero(reversals(np.sign(np.r_[0.0, np.diff(x)]))[0]))

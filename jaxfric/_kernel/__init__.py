@@ -3,7 +3,7 @@
 `events.cc` (shipped with the package) is the event loop of
 ``jaxfric._models.two_state`` written as one C++ loop per trajectory, with the same
 float64 arithmetic, so that its records are bit-identical to the pure-JAX loop's
-(tests/test_event_kernel.py). It is compiled on first use with the system C++ compiler
+(tests/core/test_event_kernel.py). It is compiled on first use with the system C++ compiler
 (``$CXX``, else ``c++``, ``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``,
 else ``$XDG_CACHE_HOME/jaxfric``, else ``~/.cache/jaxfric``), under a name keyed by a hash
 of the source, the jaxlib version and the compiler, loaded with ``ctypes`` and registered

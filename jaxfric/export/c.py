@@ -18,7 +18,7 @@ N m: ``simulate(..., load=...)``), read by the `load_friction` effect only; a mo
 that effect has no ``jaxfric_step`` (a call to it fails to link, so the load cannot be
 forgotten) and ``JAXFRIC_NEEDS_LOAD`` is 1. The code is a line-by-line translation of
 the models' JAX ``step`` (see `_models_c`, `_shapes_c`, `_effects_c`);
-tests/test_export_c.py compiles it and checks it against `simulate`.
+tests/export/test_export_c.py compiles it and checks it against `simulate`.
 """
 
 from pathlib import Path

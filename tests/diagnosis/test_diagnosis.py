@@ -1,0 +1,239 @@
+"""Acceptance tests of the diagnosis on data with a hidden effect (issue 5).
+
+The data come from `jaxfric.examples.hidden_effect_measurement`: the separable diagnosis
+motion (slow nested presliding loops, strokes at six speeds in both directions over
+different parts of the travel, a varying-velocity segment mid-record) through a "true"
+friction that is *not* the fitted model (a two-state model with a `PowerShape` presliding
+curve, which the fitted `PaperShape` cannot reproduce exactly), plus hidden effect(s) and
+0.05 N of noise.
+
+For every effect of the library the tests assert that the hidden effect is ranked first and
+significant, that adding it lowers the RMSE by at least 40 %, that the final RMSE is near
+the floor, and that nothing else stays significant. "Near the floor": within 15 % of the
+RMSE the same baseline reaches on the same motion and noise with *no* hidden effect (noise
+plus the model mismatch, 0.09 N for 0.05 N of noise), which is itself checked to be under
+twice the noise. Clean data: nothing significant. Two hidden effects: both found.
+
+The default run checks the clean case and one effect; ``pytest -m slow`` runs a pair, every
+effect at two seeds and two magnitudes, more pairs, and the real EMPS data. Cases that do
+not pass yet are listed, with what goes wrong, in `KNOWN_FAILURES` and
+`KNOWN_PAIR_FAILURES` (strict xfail).
+"""
+
+import functools
+import pathlib
+
+import equinox as eqx
+import numpy as np
+import pytest
+
+import fitting
+import jaxfric.paper
+from jaxfric.examples import hidden_effect_measurement, HIDDEN_EFFECTS
+
+
+NOISE = 0.05  # N, hidden_effect_measurement's default
+DT = 0.02  # s: 4866 samples, enough for every effect and twice as fast as 10 ms
+DATA = pathlib.Path(__file__).resolve().parents[3] / "shared" / "data"
+
+
+def baseline(names, t, x, F):
+    """The model a user would start from, lacking the hidden effect(s): a two-state model
+    from `fitting.initial_model`, except where the two-state model contains the effect
+    itself: for ``presliding`` a Tustin model (static); for ``friction_lag`` the two-state
+    model with its lag made instantaneous (``C`` held at 1e6 N/s: a lag time of 24 us);
+    for ``viscous`` the two-state model with its viscous coefficient held at 0.
+    Returns ``(model, fixed)``."""
+    if "presliding" in names:
+        return fitting.initial_model("tustin", t, x, F), ()
+    model = fitting.initial_model("two-state", t, x, F)
+    if "friction_lag" in names:
+        return eqx.tree_at(lambda m: m.C, model, 1e6), ("C",)
+    if "viscous" in names:
+        return eqx.tree_at(lambda m: m.sigma2, model, 0.0), ("sigma2",)
+    return model, ()
+
+
+@functools.cache
+def run(names: tuple[str, ...], seed: int = 0, magnitude: float = 1.0):
+    t, x, F, _ = hidden_effect_measurement(names or None, magnitude=magnitude, seed=seed,
+                                           dt=DT)
+    model, fixed = baseline(names, t, x, F)
+    # The data were made by `simulate` with its own backward-difference velocity.
+    return fitting.diagnose(model, t, x, F, fixed=fixed, derivatives="backward")
+
+
+def assert_found(names, seed=0, magnitude=1.0):
+    d = run(tuple(names), seed, magnitude)
+    first = d.rankings[0][0]
+    report = d.summary()
+    assert first.name in names, report
+    assert first.significant, report
+    assert sorted(d.final.added) == sorted(names), report
+    assert not any(c.significant for c in d.rankings[-1]), report  # nothing else left
+    assert d.final.rmse <= 0.6 * d.baseline.rmse, report
+    clean = run((), seed).baseline.rmse
+    assert clean < 2.0 * NOISE
+    assert d.final.rmse <= 1.15 * clean, (d.final.rmse, clean, report)
+    return d
+
+
+def test_clean_data_nothing_significant():
+    d = run(())
+    assert d.final.added == []
+    assert not any(c.significant for c in d.rankings[0]), d.summary()
+    assert d.baseline.rmse < 2.0 * NOISE  # the fitted model reaches noise + a small mismatch
+
+
+def test_hidden_cogging_found_added_and_error_falls():
+    d = assert_found(["cogging"])
+    c = d.rankings[0][0]
+    # The evidence names the period (1.7 mm hidden) in plain words, and the code line adds it.
+    assert "period" in c.evidence and "held-out" in c.evidence
+    period = float(d.model.effects[0].period)
+    assert abs(period / 1.7e-3 - 1.0) < 0.02
+    assert c.code.startswith("model + jaxfric.effects.Cogging(")
+
+
+def test_viscous_is_screened_only_when_the_models_own_is_held():
+    """A viscous term next to a free, positive sigma2 enlarges nothing: not a default
+    candidate then; with sigma2 held (`fixed`) it is one."""
+    from fitting._diagnose_context import _contained, effect_names
+
+    model = fitting.to_fit_representation(jaxfric.paper.two_state())
+    assert _contained(model, ()) == {"viscous"}
+    assert _contained(model, ("sigma2",)) == set()
+    names = effect_names(None, _contained(model, ()), rotary=False)
+    assert "viscous" not in names and "quadratic_drag" in names
+    assert "viscous" in effect_names(None, _contained(model, ("sigma2",)), rotary=False)
+
+
+def test_effects_screened_together_keep_their_physical_signs():
+    """Two effects regressed together (pairs, the joint check) are held in their physical
+    range as a single screen is: a drag that would fit with a negative coefficient is held
+    at 0 and the other effect refitted alone, not credited with what the wrong sign does."""
+    from fitting._screen import _regress, _regress_bounded
+
+    rng = np.random.default_rng(0)
+    n = 400
+    train = np.arange(n) % 3 != 0
+    J = np.ones((n, 1))
+    drag, mass = rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
+    resid = -2.0 * drag[:, 0] + 3.0 * mass[:, 0] + 0.01 * rng.normal(size=n)
+    blocks = [(drag, np.array([1.0]), "quadratic_drag"),
+              (mass, np.array([1.0]), "inertia")]
+    left, (w_drag, w_mass) = _regress_bounded(resid, train, J, blocks)
+    assert w_drag[0] == 0.0 and abs(w_mass[0] - 3.0) < 0.3
+    only_mass, _ = _regress(resid, train, J, mass)
+    np.testing.assert_allclose(left, only_mass, atol=1e-12)
+    # The other way round the mass is held at 0, and the drag is the plain least squares
+    # without it.
+    _, (w_drag, w_mass) = _regress_bounded(-resid, train, J, blocks)
+    _, coef = _regress(-resid, train, J, drag)
+    assert w_mass[0] == 0.0 and w_drag[0] == pytest.approx(coef[1], rel=1e-12)
+
+
+def test_a_drift_stays_slow_in_the_diagnosis_refits():
+    """The refits hold a drift's settling rate to the screen's range (settling times from a
+    tenth of the record): a drift cannot turn into a start-up transient."""
+    from fitting._diagnose_context import _refit_props
+    from fitting._params import leaf_names, props_leaves
+    from fitting._transforms import Sigmoid
+    from jaxfric import effects as fx
+
+    t = np.linspace(0.0, 100.0, 1001)
+    base = jaxfric.paper.two_state()
+    assert _refit_props(base, t) is None
+    for decay, bounded in ((0.0, True), (0.1, True), (2.0, False)):  # 2/s: a user's own
+        model = base + fx.Drift(drift_rate=0.01, drift_decay=decay)
+        props = _refit_props(model, t)
+        names = leaf_names(fitting.to_fit_representation(model))
+        transform = props_leaves(props)[names.index("drift_decay")].transform
+        assert isinstance(transform, Sigmoid) == bounded
+        if bounded:
+            assert (transform.low, transform.high) == (-0.01, 0.105)
+
+
+# Slow (about two minutes): the pair screen's refits; the pairs run with -m slow.
+@pytest.mark.slow
+def test_two_hidden_effects_both_found():
+    assert_found(["offset", "inertia"])
+
+
+#: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
+#: Strict: when one starts to pass, the test fails until it is taken off this list.
+KNOWN_FAILURES: dict[tuple[str, int, float], str] = {}
+
+#: Pairs of hidden effects the diagnosis does not separate yet (README, "Limits").
+KNOWN_PAIR_FAILURES: dict[tuple[str, ...], str] = {}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed, magnitude", [(0, 1.0), (1, 2.0)])
+@pytest.mark.parametrize("name", HIDDEN_EFFECTS)
+def test_every_hidden_effect_is_found(name, seed, magnitude, request):
+    reason = KNOWN_FAILURES.get((name, seed, magnitude))
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    assert_found([name], seed, magnitude)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_clean_data_nothing_significant_other_seeds(seed):
+    d = run((), seed)
+    assert d.final.added == [] and not any(c.significant for c in d.rankings[0]), d.summary()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("names", [("cogging", "inertia"), ("quadratic_drag", "offset"),
+                                   ("asymmetry", "position_dependence"), ("cogging", "drift")],
+                         ids="+".join)
+def test_pairs_of_hidden_effects(names, request):
+    reason = KNOWN_PAIR_FAILURES.get(names)
+    if reason:
+        request.node.add_marker(pytest.mark.xfail(reason=reason, strict=True))
+    assert_found(list(names), seed=3)
+
+
+@pytest.mark.slow
+def test_emps_friction_only_model_finds_inertia_and_error_falls():
+    path = DATA / "emps_estimation.csv"
+    if not path.exists():
+        pytest.skip(f"{path} not present")
+    from jaxfric import data as jdata
+
+    m = jdata.load(path)
+    assert m.force_column == "u"  # the drive force: friction + inertia + offset
+    v = m.velocity(0.01)  # as `jaxfric diagnose` does for drive-force data
+    model = fitting.initial_model("two-state", m.t, m.x, m.force, v)
+    d = fitting.diagnose(model, m.t, m.x, m.force, v)
+    assert d.rankings[0][0].name == "inertia", d.summary()
+    assert "inertia" in d.final.added
+    # The published inverse model reaches about 4 % relative error on this record.
+    assert d.final.rel_error < 0.06, d.summary()
+    assert d.final.rmse < 0.2 * d.baseline.rmse
+    # For the right reasons: the mass and the viscous coefficient of the published inverse
+    # model (95.1 kg, 203.4 N s/m) within 15 %; of the plausibility checks, only the note
+    # that the Stribeck curve's sliding level lies beyond the fastest measured speed. (With
+    # the backward difference of the velocity as acceleration, before the zero-phase one,
+    # the base model traded the viscous term for a rising Stribeck curve: 1.2 N s/m.)
+    final = d.final.fit.model
+    masses = [e.mass for e in final.effects if e.name == "inertia"]
+    assert masses and abs(float(masses[0]) / 95.1 - 1) < 0.15, d.summary()
+    assert abs(float(final.base.sigma2) / 203.4 - 1) < 0.15, d.summary()
+    final_warnings = d.warnings.get("final", [])
+    assert all("beyond the data" in w for w in final_warnings), final_warnings
+
+
+if __name__ == "__main__":
+    # Print the diagnosis of one synthetic case, as the tests run it (the README quotes
+    # these): python -m tests.test_diagnosis asymmetry position_dependence --seed 3
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("effects", nargs="*", help="hidden effects (none: clean data)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--magnitude", type=float, default=1.0)
+    args = parser.parse_args()
+    print(run(tuple(args.effects), args.seed, args.magnitude).summary())

@@ -1,0 +1,88 @@
+"""docs/validation.md is what `benchmarks/make_validation.py` makes of the committed
+benchmark JSONs: no number on it can be edited by hand."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from benchmarks.make_validation import render, SOURCES
+
+
+ROOT = Path(__file__).resolve().parents[2]
+HEADINGS = ["## Diagnosis bench", "## Fit speed", "## Throughput", "## Monte-Carlo",
+            "## Real data", "## C step", "## Diagnose speed", "## Compiler options"]
+
+
+def test_the_committed_page_is_the_generated_one():
+    page = (ROOT / "docs" / "validation.md").read_text()
+    assert page == render(ROOT), "run: python benchmarks/make_validation.py"
+    # Other pages link to these anchors.
+    assert [line for line in page.splitlines() if line.startswith("## ")] == HEADINGS
+
+
+def _copy(tmp_path: Path) -> Path:
+    for rel in SOURCES.values():
+        if (ROOT / rel).is_file():
+            (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(ROOT / rel, tmp_path / rel)
+    return tmp_path
+
+
+def test_a_changed_result_changes_the_page(tmp_path):
+    """The page follows the JSONs: a goal's measured value and its verdict come from them."""
+    root = _copy(tmp_path)
+    before = render(root)
+    path = root / SOURCES["c_step"]
+    data = json.loads(path.read_text())
+    row = data["rows"][0]
+    row["c_ns_per_step"] = 1234.0
+    path.write_text(json.dumps(data))
+    after = render(root)
+    assert after != before
+    assert f"| C step, {row['model']} | 1234 ns | <= 100 ns | **MISSED** |" in after
+
+
+def test_the_diagnosis_targets_are_judged_on_the_counts(tmp_path):
+    root = _copy(tmp_path)
+    path = root / SOURCES["diagnosis"]
+    data = json.loads(path.read_text())
+    for corner in data["corners"]:
+        corner["added_on_clean"] = 1
+    path.write_text(json.dumps(data))
+    n = len(data["corners"])
+    assert f"| effects added on clean files | {n} | 0 | **MISSED** |" in render(root)
+
+
+def test_a_missing_json_is_said_not_invented(tmp_path):
+    root = _copy(tmp_path)
+    (root / SOURCES["compiler_options"]).unlink()
+    page = render(root)
+    assert "## Compiler options\n\nNo results: `benchmarks/compiler_options.json` is missing" \
+        in page
+
+
+def test_check_mode_fails_on_a_stale_page(tmp_path):
+    stale = tmp_path / "validation.md"
+    stale.write_text(render(ROOT).replace("## Throughput", "## Throughput (edited)"))
+    script = ROOT / "benchmarks" / "make_validation.py"
+    run = subprocess.run([sys.executable, str(script), "--check", "--out", str(stale)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1 and "differs" in run.stdout
+    stale.write_text(render(ROOT))
+    run = subprocess.run([sys.executable, str(script), "--check", "--out", str(stale)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout
+
+
+def test_a_json_of_another_layout_is_said_unreadable(tmp_path):
+    root = _copy(tmp_path)
+    (root / SOURCES["montecarlo"]).write_text(json.dumps({"rows": [{"case": "x"}]}))
+    page = render(root)
+    assert "## Monte-Carlo\n\nCannot read `benchmarks/montecarlo_speed.json`: KeyError" in page
+    # A script that judges its own goals is shown as it judged them.
+    (root / SOURCES["montecarlo"]).write_text(json.dumps({"goals": [
+        {"goal": "batch >= 2x Numba", "measured": 2.5, "target": 2.0, "unit": "x",
+         "status": "PASS"}], "rows": []}))
+    assert "| batch >= 2x Numba | 2.5x | 2x | met |" in render(root)
