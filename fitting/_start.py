@@ -37,7 +37,7 @@ from jaxfric.motion import velocity
 
 from ._data import Dataset
 from ._staged import _estimate_l1, constant_velocity_segments, initial_stribeck
-from ._steady import fit_steady_curve, steady_curve
+from ._steady import fit_steady_curve, steady_curve, steady_weights
 
 
 KINDS = ("two-state", "gms", "lugre", "tustin")
@@ -177,3 +177,14 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
         else:
             candidates.append(jaxfric.GMS.from_shape(shape, stribeck, sigma2, C, n_elements))
     return _best(candidates, t, x, F, v)
+
+
+def steady_sliding_weights(t, x, F, v=None) -> np.ndarray:
+    """Weights for fitting a static model (`jaxfric.Tustin`) where it can represent the
+    data: 1 on the steady sliding samples (`fitting._steady.steady_sliding`, beyond twice
+    the `swing_travel` of a reversal, or a tenth of the median stroke without one), 0
+    elsewhere; all ones when fewer than 10 samples slide steadily. (s, m, N, m/s.)"""
+    t, x, F = (np.asarray(a, dtype=np.float64) for a in (t, x, F))
+    vel = velocity(t, x) if v is None else np.asarray(v, dtype=np.float64)
+    x90 = swing_travel(x, F)
+    return steady_weights(t, x, vel, 2.0 * x90 if x90 is not None else 0.1 * _strokes(x))
