@@ -21,14 +21,12 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   before the presliding and the curve are known, so it is one of the uncertain values below.
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
   estimate) and the lag time constant (`LAG_TIMES`) are tried together: every candidate is
-  simulated on the measurement at once (`jaxfric.simulate_many`) and the one with the
-  smallest sum of squared errors is the start. (LuGre: ``sigma0`` x0.5, x1, x2.)
+  simulated on the measurement (one compiled `jaxfric.simulate` for all) and the one with
+  the smallest sum of squared errors is the start. (LuGre: ``sigma0`` x0.5, x1, x2.)
 """
 
 import itertools
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 import jaxfric
@@ -125,12 +123,11 @@ def _static_curve(t, x, F, v, vel, presliding):
 
 def _best(models, t, x, F, v):
     """The model of `models` (same structure) whose simulation on the measurement has the
-    smallest sum of squared errors (all simulated at once; a non-finite one never wins)."""
+    smallest sum of squared errors (a non-finite one never wins). One compiled simulation
+    serves them all (their parameters are arrays of one shape)."""
     if len(models) == 1:
         return models[0]
-    batch = jax.tree.map(lambda *a: jnp.stack(a), *models)
-    force = np.asarray(jaxfric.simulate_many(batch, t, x, v))
-    sse = np.sum((force - F[None, :]) ** 2, axis=1)
+    sse = [float(np.sum((np.asarray(jaxfric.simulate(m, t, x, v)) - F) ** 2)) for m in models]
     return models[int(np.argmin(np.where(np.isfinite(sse), sse, np.inf)))]
 
 
