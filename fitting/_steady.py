@@ -128,11 +128,12 @@ def _stribeck_columns(speed, vs, delta):
     return np.column_stack([np.ones_like(speed), np.exp(-((speed / vs) ** delta)), speed])
 
 
-def fit_steady_curve(curve: SteadyCurve, *, n_vs: int = 24
+def fit_steady_curve(curve: SteadyCurve, *, deltas=DELTAS, n_vs: int = 24
                      ) -> tuple[jaxfric.Stribeck, float, float]:
     """``(stribeck, sigma2, rms)``: the Stribeck curve and viscous term (N s/m) whose
     steady state ``s(v) + sigma2*v`` fits the bins of `curve` best (module docstring), and
-    the weighted RMS misfit (N). Needs 3 bins or more (`ValueError` otherwise)."""
+    the weighted RMS misfit (N). `deltas`: the exponents tried (one value holds it; the
+    polish keeps it within their range). Needs 3 bins or more (`ValueError` otherwise)."""
     if len(curve) < 3:
         raise ValueError(f"need 3 speed bins of steady sliding for a steady-state curve, got "
                          f"{len(curve)}")
@@ -141,29 +142,36 @@ def fit_steady_curve(curve: SteadyCurve, *, n_vs: int = 24
     grid = np.geomspace(speed[0] / 3.0, speed[-1] * 3.0, n_vs)
     best = None
     for vs in grid:
-        for delta in DELTAS:
+        for delta in deltas:
             A = _stribeck_columns(speed, vs, delta)
             coef, res = nnls(A * w[:, None], force * w)
             if best is None or res < best[0]:
                 best = (res, vs, delta, coef)
     res, vs, delta, (fc, dfs, sigma2) = best
-    # Polish all five from the grid's best (bounded: non-negative levels, delta 0.2 .. 5).
+    # Polish from the grid's best (bounded: non-negative levels, Vs within the grid, delta
+    # within `deltas`).
+    free_delta = min(deltas) < max(deltas)
+
+    def unpack(p):
+        return np.exp(p[0]), (p[1] if free_delta else delta), p[-3:]
 
     def residual(p):
-        return (_stribeck_columns(speed, np.exp(p[0]), p[1]) @ p[2:] - force) * w
+        vs_, delta_, lin = unpack(p)
+        return (_stribeck_columns(speed, vs_, delta_) @ lin - force) * w
 
     scale = max(float(force.max()), 1e-12)
-    p0 = np.array([np.log(vs), delta, fc, dfs, sigma2])
-    lo = [np.log(grid[0]), 0.2, 0.0, 0.0, 0.0]
-    hi = [np.log(grid[-1]), 5.0, 10.0 * scale, 10.0 * scale, np.inf]
+    keep = [True, free_delta, True, True, True]
+    p0 = np.array([np.log(vs), delta, fc, dfs, sigma2])[keep]
+    lo = np.array([np.log(grid[0]), min(deltas), 0.0, 0.0, 0.0])[keep]
+    hi = np.array([np.log(grid[-1]), max(deltas), 10.0 * scale, 10.0 * scale, np.inf])[keep]
     polished = least_squares(residual, np.clip(p0, lo, hi), bounds=(lo, hi), x_scale="jac")
     if polished.success and np.linalg.norm(polished.fun) < res:
         res = float(np.linalg.norm(polished.fun))
-        vs, delta, fc, dfs, sigma2 = np.exp(polished.x[0]), *polished.x[1:]
+        vs, delta, (fc, dfs, sigma2) = unpack(polished.x)
     if fc <= 0:  # the whole level in the exponential: no sliding plateau in the data
         fc, dfs = fc + dfs, 0.0
     fc = max(fc, 1e-3 * max(float(force.max()), 1e-12))
-    stribeck = jaxfric.Stribeck(Fs=fc + dfs, Fc=fc, Vs=vs, delta=delta)
+    stribeck = jaxfric.Stribeck(Fs=fc + dfs, Fc=fc, Vs=vs, delta=float(delta))
     return stribeck, float(sigma2), float(res / np.sqrt(np.sum(w**2)))
 
 
