@@ -6,8 +6,9 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
 - **Presliding range**: the travel after a reversal at which the force has swung by 90 % of
   that branch's whole rise (`swing_travel`; the median over the branches that rise by at
   least 60 % of the largest rise, i.e. full reversals). Sliding starts beyond twice that.
-- **Steady-state curve** (Stribeck ``Fs, Fc, Vs, delta`` and ``sigma2``): fitted to the
-  median force of the steady sliding samples per speed bin (`fitting._steady`); with fewer
+- **Steady-state curve** (Stribeck ``Fs, Fc, Vs`` and ``sigma2``, ``delta`` held at
+  `START_DELTA`): fitted to the median force of the steady sliding samples per speed bin
+  (`fitting._steady`); with fewer
   than 3 speed bins, from force levels (``Fc`` the median of ``|F|`` while moving,
   ``Fs = 1.2*Fc``, ``Vs`` a fifth of the 90th percentile of ``|v|``, a small ``sigma2``)
   or the steady constant-velocity segments (`initial_stribeck`), whichever static curve
