@@ -14,7 +14,7 @@ from jaxfric import data as _data, units as _units
 
 from .._fit import fit as _fit
 from .._search_copy import SEARCH_SAMPLES
-from .._start import initial_model
+from .._start import initial_model, steady_sliding_weights
 from ._io import (
     about,
     chosen_kind,
@@ -364,12 +364,21 @@ def compare_measurement(args, kinds, m, log) -> dict:
         log(f"fitting {kind} ...")
         with about(m.source):
             start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
-            res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a)
-        errs = regime_errors(np.asarray(res.residuals), masks)
+            # A static model cannot represent presliding: fitted on the steady sliding only.
+            w = steady_sliding_weights(m.t, m.x, m.F, v) if kind == "tustin" else None
+            res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a, weights=w)
+        # Every sample's error (a sample of weight 0 has no residual in the result).
+        errs = regime_errors(np.asarray(res.prediction) - m.F, masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
-        results[kind] = {**result_json(kind, res, m), "regimes": errs, **extra}
+        on = "all samples" if w is None or w.all() else f"{int(w.sum())} steady sliding samples"
+        results[kind] = {**result_json(kind, res, m), "regimes": errs, "fitted_on": on, **extra}
+        if on != "all samples":  # "rmse" over the whole file, as for the other models
+            results[kind].update(rmse=errs["all"]["rmse"], rmse_fitted_samples=float(res.rmse))
     names = list(next(iter(rows.values())))
-    log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file):")
+    steady = [f"{k} to its {r['fitted_on']}" for k, r in results.items()
+              if r["fitted_on"] != "all samples"]
+    log(f"\nRMSE per regime, {m.unit('F')} (fitted to the whole file"
+        + "".join(f"; {s}" for s in steady) + "):")
     log(f"{'model':<10}" + "".join(f"{n[:22]:>24}" for n in names))
     for kind, errs in rows.items():
         log(f"{kind:<10}" + "".join(f"{errs[n]['rmse'] if n in errs else float('nan'):>24.4g}"

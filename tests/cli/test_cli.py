@@ -250,11 +250,32 @@ def test_fit_then_simulate_with_its_parameters_and_compare(tmp_path):
     assert r.returncode == 2 and "missing.json: no such file" in r.stderr
 
 
-# Slow (about 100 s under the other tests): the whole demo, fit + diagnosis + report.
+#: The demo's RMSE after the diagnosis before issue 36 (its base fit in a poor optimum whose
+#: steady-state curve sits up to 10 N below the measured sliding force at 20 mm/s); the
+#: goal is to halve it.
+DEMO_RMSE_BEFORE = 0.751
+
+
+# Slow (about 100-300 s under the other tests): the whole demo, fit + diagnosis + report.
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "the two-state model simulated at the demo's 20 ms samples charges the whole Stribeck "
+    "drop after a fast reversal into the friction lag (a 20 ms step at 10 mm/s crosses the "
+    "144 um of presliding, gamma = 1 at its end); the stage's 2 ms grid does not: the true "
+    "model is 1.10 N RMS from its own data at 20 ms, and the fit trades the Stribeck curve "
+    "(Fc -> 0, Vs 20 mm/s) for that lag: 0.751 -> 0.632 N from the data-drawn start too; "
+    "with no lag charged on a reversal step the demo gives 0.459 -> 0.172 N, its curve "
+    "within 8.6 % of Fs of the measured bins"))
 def test_demo_writes_the_report(tmp_path):
-    """The newcomer's first command: the report exists, its figures are not empty, and the
-    hidden effect of the built-in data is the one found."""
+    """The newcomer's first command: the report exists, its figures are not empty, the
+    hidden effect of the built-in data is the one found, the error after the diagnosis is
+    at most half of `DEMO_RMSE_BEFORE`, and the final model's steady-state curve is within
+    10 % of Fs of the measured sliding force in every speed bin (the measured force is
+    itself up to 9 % of Fs off the stage's steady state: its friction lag of about 2 s does
+    not settle within a stroke)."""
+    from fitting._start import swing_travel
+    from fitting._steady import steady_curve
+
     out = tmp_path / "demo"
     r = run("demo", "--out", out, "--json", tmp_path / "demo.json")
     assert r.returncode == 0, r.stderr
@@ -267,12 +288,15 @@ def test_demo_writes_the_report(tmp_path):
     assert summary["found"] == ["cogging"]
     assert summary["final_rmse_N"] < summary["baseline_rmse_N"]
     assert (out / "example.csv").stat().st_size > 0
-    # The error used to fall by half (0.494 -> 0.242 N, on the install the docs were first
-    # written with); on this install, from before this session's changes on, the baseline
-    # fit lands in a worse optimum (0.751 N) and the error falls to 0.632 N. Kept visible:
-    if summary["final_rmse_N"] >= 0.5 * summary["baseline_rmse_N"]:
-        pytest.xfail("the demo's error no longer falls by half (baseline 0.751 N, after "
-                     "cogging 0.632 N): the base fit's optimum; open")
+    t, x, F = np.loadtxt(out / "example.csv", delimiter=",", skiprows=1).T
+    v = np.gradient(x, t)
+    curve = steady_curve(t, x, F, v, 2 * swing_travel(x, F))
+    model = jaxfric.load_model(summary["diagnosis"]["fitted_model"])
+    base = model.base if hasattr(model, "base") else model
+    steady = np.asarray(base.stribeck.magnitude(curve.speed)) + float(base.sigma2) * curve.speed
+    off = np.abs(steady - curve.force) / float(base.stribeck.Fs)
+    assert len(curve) >= 4 and np.all(off < 0.10), dict(zip(curve.speed, off, strict=True))
+    assert summary["final_rmse_N"] <= 0.5 * DEMO_RMSE_BEFORE
 
 
 def test_progress_prints_steps_and_rmse():
