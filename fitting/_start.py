@@ -47,7 +47,7 @@ LAG_TIMES = (2.4, 0.24, 0.024)
 #: The start's Stribeck exponent. The bins determine ``delta`` least of the curve's
 #: parameters, and where a friction lag has not settled in them they look like a steep step:
 #: a start there (``delta`` 2.5 or more) sent a two-state fit to ``delta`` ~300, where its
-#: next fits could not move (tests/test_folds.py); the fit determines it from 1.
+#: next fits could not move (tests/diagnosis/test_folds.py); the fit determines it from 1.
 START_DELTA = 1.0
 #: Factors on the presliding estimate tried for every hysteretic start.
 SPREAD = (0.5, 1.0, 2.0)
