@@ -117,6 +117,7 @@ from ._staged import (
     StagedResult as StagedResult,
 )
 from ._start import initial_model as initial_model
+from ._stopping import Tolerances as Tolerances
 from ._transforms import (
     AbstractTransform as AbstractTransform,
     Exp as Exp,

@@ -18,6 +18,7 @@ from jaxfric._compile import jit
 from . import _params
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
+from ._stopping import decrease_left, Stopping, Tolerances
 
 
 # Eigenvalues of the equilibrated J^T J below this fraction of the largest are treated as
@@ -60,6 +61,7 @@ class _Core(eqx.Module):
     stderr: tuple[Array, ...]
     corr: Array
     corr_fit: Array
+    at_bound: Array  # one flag per leaf: free and pinned at a bound of its transform
 
 
 def _covariance(jac, resid, mask, n_obs):
@@ -104,14 +106,25 @@ def _remaining_step(jac, resid, mask, n_obs):
     return jnp.sqrt(z2)
 
 
-def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) -> _Core:
+def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
+                decrease=Tolerances.decrease, undetermined=Tolerances.undetermined) -> _Core:
     """The whole solve in one compiled loop of at most `max_steps` (static) steps: the
-    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`)."""
+    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`). A least-squares
+    solver stops on the same statistical rule as `fit` (`fitting._stopping.Stopping`,
+    tested after every step) or on its own test."""
     scale = _force_scale(data)
     args = (problem, data, scale)
+    if isinstance(solver, optx.AbstractLeastSquaresSolver):
+        dtype = y0.dtype
+        # (Its budget is past `max_steps`: optimistix's own limit then reports reaching it.)
+        solver = Stopping(solver, jnp.asarray(max_steps + 1, jnp.int32), jnp.zeros((), dtype),
+                          jnp.asarray(decrease, dtype), jnp.asarray(undetermined, dtype),
+                          jnp.ones_like(y0), problem.layout.coordinate_mask(),
+                          jnp.sum(data.weights > 0).astype(dtype))
     sol = optx.least_squares(
         _residuals, solver, y0, args, has_aux=True, max_steps=max_steps, throw=False
     )
+    state = sol.state[0] if isinstance(solver, Stopping) else sol.state
     y = sol.value
     # The solver's last accepted point is `y`: its residuals, Jacobian and aux (the force)
     # are reused rather than recomputed, which would trace and compile the JVP of the
@@ -120,9 +133,9 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     # the aux of the point accepted *before* `y` (optimistix returns `prev_aux` from each
     # step), so the prediction and RMSE would belong to another model than the one
     # returned (visibly so for a fit stopped at its step limit).
-    f_info = getattr(sol.state, "f_info", None)
+    f_info = getattr(state, "f_info", None)
     if isinstance(f_info, optx.FunctionInfo.ResidualJac):
-        force, overflow = sol.state.aux
+        force, overflow = state.aux
         resid = f_info.residual.ravel()
         jac = f_info.jac.as_matrix()
     else:  # a minimiser: no Jacobian in its state; evaluate everything at `y`
@@ -132,9 +145,13 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     # A solve that never left its start is converged only if the start is an optimum (the
     # gradient test of `STUCK_COSINE`, as in `fitting._chunked`); otherwise it is stuck.
     # A residual at round-off (an exact fit) is an optimum whatever its direction.
+    # A start that satisfies the statistical rule is an optimum too (a refit of a fit).
+    mask = problem.layout.coordinate_mask()
     exact = jnp.sqrt(jnp.mean(resid**2)) <= EXACT_RESIDUAL
-    stuck = jnp.all(y == y0) & ~exact & (
-        _max_cosine(jac, resid, problem.layout.coordinate_mask()) > STUCK_COSINE)
+    left, _ = decrease_left(jac, resid, mask, jnp.sum(data.weights > 0).astype(y.dtype),
+                            undetermined)
+    stuck = jnp.all(y == y0) & ~exact & ~(left <= decrease) & (
+        _max_cosine(jac, resid, mask) > STUCK_COSINE)
     result = optx.RESULTS.where(stuck & (result == optx.RESULTS.successful),
                                 optx.RESULTS.nonlinear_divergence, result)
     return _finish_impl(problem, y, data, resid, jac, force, overflow, result,
@@ -146,6 +163,11 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
 STUCK_COSINE = 1e-4
 #: RMS of the scaled residuals (in units of the force's scale) below which a fit is exact.
 EXACT_RESIDUAL = 1e-10
+#: A fit is converged only if its R2 is at least this: the model explains at least a tenth
+#: of the measured force's variance. A friction model that explains less has not fitted
+#: the friction (a collapse to zero force, a velocity of the wrong sign); fits of friction
+#: data explain far more (0.9 and above), so the threshold only catches failures.
+MIN_R2 = 0.1
 
 
 def _max_cosine(jac, resid, mask):
@@ -198,6 +220,13 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
     result = optx.RESULTS.where(jnp.isfinite(rmse), result, optx.RESULTS.nonfinite)
     f_obs_mean = jnp.sum(jnp.where(observed, data.F, 0.0)) / n_obs
     ss_tot = jnp.sum(jnp.where(observed, (data.F - f_obs_mean) ** 2, 0.0))
+    r2 = 1.0 - jnp.sum(err**2) / ss_tot
+    # Honest status: a stopping rule that fired is not enough; the data must be explained
+    # (`MIN_R2`) and no parameter may sit pinned at a bound of its transform.
+    at_bound = problem.layout.at_bound(y)
+    result = optx.RESULTS.where(
+        (result == optx.RESULTS.successful) & ((r2 < MIN_R2) | jnp.any(at_bound)),
+        optx.RESULTS.nonlinear_divergence, result)
     f_range = jnp.max(jnp.where(observed, data.F, -jnp.inf)) - jnp.min(
         jnp.where(observed, data.F, jnp.inf)
     )
@@ -216,7 +245,7 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
         cov_fit=cov_fit,
         rmse=rmse,
         nrmse=rmse / f_range,
-        r2=1.0 - jnp.sum(err**2) / ss_tot,
+        r2=r2,
         condition_number=cond,
         model=problem.user_model(y),
         fit_model=problem.model(y),
@@ -224,6 +253,7 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
         stderr=tuple(sd[i] for i in range(sd.shape[0])),
         corr=_correlation(cov_natural),
         corr_fit=_correlation(cov_fit),
+        at_bound=at_bound,
     )
 
 
@@ -231,7 +261,8 @@ _solve = jit(_solve_impl)
 
 
 @jit
-def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
+def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False,
+                 decrease=Tolerances.decrease, undetermined=Tolerances.undetermined):
     # Over datasets only; returning arrays and the result code (never the whole optimistix
     # Solution, whose state holds jaxprs that cannot be batched: optimistix issues #38 and
     # #63). A failure in one dataset only shows in its own `result`.
@@ -241,7 +272,7 @@ def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
     # benchmarks/throughput.py compares both). `vmap` (`vectorize=True`): one loop for
     # all, for accelerators.
     def one(d):
-        return _solve_impl(problem, y0, d, solver, max_steps)
+        return _solve_impl(problem, y0, d, solver, max_steps, decrease, undetermined)
 
     return jax.vmap(one)(data) if vectorize else jax.lax.map(one, data)
 
@@ -252,7 +283,9 @@ def _correlation(cov):
     return jnp.where(denom > 0, cov / jnp.where(denom > 0, denom, 1.0), jnp.nan)
 
 
-def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize):
+def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize,
+                            decrease=Tolerances.decrease,
+                            undetermined=Tolerances.undetermined):
     """`_solve_batch` with the B datasets split into contiguous shares, one per device.
 
     Each share is placed on its device and solved there by the same compiled function;
@@ -275,6 +308,6 @@ def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vecto
                 part)
         problem_k, y0_k, part = jax.device_put((problem, y0, part), device)
         pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps,
-                                           vectorize)))
+                                           vectorize, decrease, undetermined)))
     shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in pending]
     return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)
