@@ -315,8 +315,10 @@ def main(argv=None) -> int:
     # --quick: a smoke test of the script, both solvers cut short (not a measurement).
     max_steps, max_nfev = (8, 10) if args.quick else (args.max_steps, None)
     cells = []
-    for n in sizes:
-        for model in models:
+    # Model by model (the two-state model, which carries the speed targets, first), each
+    # over its sizes: a run stopped early has whole models.
+    for model in models:
+        for n in sizes:
             for motion in motions:
                 cells.append(bench_cell(motion, model, n, numba_compile, max_steps, log,
                                         max_nfev))
