@@ -53,7 +53,7 @@ from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
 from ._result import status_name
 from ._solve import _Core, _evaluate_impl, _finish_impl, MIN_R2, STUCK_COSINE
-from ._stopping import decrease_left, Stopping, Tolerances
+from ._stopping import decrease_left, STALL_PREDICTED, STALL_STEPS, Stopping, Tolerances
 from ._transforms import Exp, Sigmoid, Softplus
 
 
@@ -149,6 +149,10 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
             return (f"the Gauss-Newton decrease left is {left:.2g} noise variances "
                     f"(decrease = {tol.decrease:g}): nothing the data can tell is left",
                     True)
+        if left <= STALL_PREDICTED:
+            return (f"the steps stalled: the last {STALL_STEPS} gained under "
+                    f"{tol.decrease:g} noise variances, {left:.2g} predicted (or the "
+                    "solver's own test)", True)
         return "the solver's own test (last step and residual change within rtol/atol)", True
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"

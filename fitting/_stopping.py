@@ -127,15 +127,20 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             size = inner.search_state.step_size
             inner = eqx.tree_at(lambda s: s.search_state.step_size, inner,
                                 jnp.where(self.step_size > 0, self.step_size, size))
-        return inner, jnp.zeros((), jnp.int32)
+        # The cost after each of the last `STALL_STEPS` steps (a ring; inf until filled).
+        costs = jnp.full((STALL_STEPS,), jnp.inf, y.dtype)
+        return inner, jnp.zeros((), jnp.int32), costs
 
     def step(self, fn, y, args, options, state, tags):
-        inner, count = state
+        inner, count, costs = state
         y, inner, aux = self.solver.step(fn, y, args, options, inner, tags)
-        return y, (inner, count + 1), aux
+        f_info = getattr(inner, "f_info", None)
+        if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+            costs = costs.at[count % STALL_STEPS].set(0.5 * jnp.sum(f_info.residual**2))
+        return y, (inner, count + 1, costs), aux
 
     def terminate(self, fn, y, args, options, state, tags):
-        inner, count = state
+        inner, count, costs = state
         done, result = self.solver.terminate(fn, y, args, options, inner, tags)
         settled = jnp.asarray(False)
         f_info = getattr(inner, "f_info", None)
@@ -143,10 +148,25 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             # After the first step the state holds the residual and Jacobian at the last
             # accepted point (before it, zeros: `count` guards that).
             jac = f_info.jac.as_matrix() / self.inv_d
-            ratio, _ = decrease_left(jac, f_info.residual.ravel(), self.mask, self.n_obs,
-                                     self.undetermined)
-            settled = (count >= 1) & (ratio <= self.decrease)
+            resid = f_info.residual.ravel()
+            ratio, _ = decrease_left(jac, resid, self.mask, self.n_obs, self.undetermined)
+            s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+            # The ring's oldest entry (the next to be overwritten) is the cost
+            # STALL_STEPS - 1 steps ago; the newest is now.
+            achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
+            stalled = (ratio <= STALL_PREDICTED) & (achieved <= self.decrease * s2)
+            settled = (count >= 1) & ((ratio <= self.decrease) | stalled)
         return done | settled | (count >= self.budget), result
 
     def postprocess(self, fn, y, aux, args, options, state, tags, result):
         return self.solver.postprocess(fn, y, aux, args, options, state[0], tags, result)
+
+
+#: The stall rule (predicted and achieved): the fit also stops when the linear model
+#: predicts at most `STALL_PREDICTED` noise variances left (a step of at most 1.4
+#: standard errors) and the last `STALL_STEPS` steps together achieved at most `decrease`
+#: noise variances. In a curved valley the linear model overstates what a step can gain;
+#: eight steps that together gain nothing measurable show that the rest is out of reach
+#: of the solver's steps and, being under one noise variance, of the data's interest.
+STALL_STEPS = 8
+STALL_PREDICTED = 1.0
