@@ -50,7 +50,7 @@ class Tolerances:
 
     - `decrease`: the statistical rule (module docstring): stop when the Gauss-Newton
       decrease of the cost left is at most this many noise variances (0.01: a bias of at
-      most 0.14 standard errors); 0 turns it off.
+      most 0.14 standard errors), or the steps stall (`STALL_STEPS`); 0 turns both off.
     - `undetermined`: standard error, in the solver's coordinates (a factor e for positive
       parameters), above which a direction or a parameter is undetermined: left out of the
       rule, and the parameter held at its start (`fit`, `fit_datasets`).
@@ -154,7 +154,8 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             # The ring's oldest entry (the next to be overwritten) is the cost
             # STALL_STEPS - 1 steps ago; the newest is now.
             achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
-            stalled = (ratio <= STALL_PREDICTED) & (achieved <= self.decrease * s2)
+            stalled = ((self.decrease > 0) & (ratio <= STALL_PREDICTED)
+                       & (achieved <= self.decrease * s2))
             settled = (count >= 1) & ((ratio <= self.decrease) | stalled)
         return done | settled | (count >= self.budget), result
 
