@@ -275,6 +275,21 @@ def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
     return out
 
 
+def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset, result,
+                          steps: int):
+    """The core of the fit at `y` (the `held` leaves at their start values) with every
+    other array as for `start`, the problem before any hold: the covariance then spans the
+    held leaves too, so that the errors of the others include what the data leave free
+    (a parameter that trades off with an undetermined one is not reported sharper than it
+    is); the held leaves' own errors are reported as unknown (`FitResult.undetermined`)."""
+    coord = np.isin(start.layout.coordinate_leaf(), held)
+    y_full = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
+    resid, jac, force, overflow = _evaluate(start, y_full, data)
+    core = _finish(start, y_full, data, resid, jac, force, overflow, result,
+                   jnp.asarray(steps))
+    return core, start
+
+
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                   tol: Tolerances | None = None,
                   progress: Callable[[_Progress], None] | None = None) -> Solved:
@@ -287,7 +302,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         core = _finish(problem, y0, data, resid, jac, force, overflow,
                        optx.RESULTS.nonlinear_max_steps_reached, jnp.asarray(0))
         return Solved(core, "max_steps = 0: no step taken", problem)
-    y, steps = y0, 0
+    y, steps, start = y0, 0, problem
     n_obs = int(np.sum(np.asarray(data.weights) > 0))
     d = np.zeros(np.shape(y0))
     step_size = jnp.zeros(())
@@ -338,7 +353,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         result = optx.RESULTS.nonlinear_divergence
     core = _finish(problem, y, data, out.resid, out.jac, out.force, out.overflow, result,
                    jnp.asarray(steps))
-    names = tuple(problem.layout.names[i] for i in held)
-    loose = tuple(problem.layout.names[i] for i in unheld)
-    reason += _held_words(names, loose)
-    return Solved(core, reason, problem, names + loose)
+    if held:
+        core, problem = _with_full_covariance(start, y0, y, held, data, result, steps)
+    names = [tuple(problem.layout.names[i] for i in k) for k in (held, unheld)]
+    return Solved(core, reason + _held_words(*names), problem, names[0] + names[1])
