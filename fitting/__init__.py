@@ -8,7 +8,9 @@ properties pytree beside the model, never inside it.
 **Fitting**
 
 - `fit(model, t, x, F, v=None, *, free=None, props=None, solver=None, max_steps=256,
-  weights=None, reparameterize=True) -> FitResult`: one experiment.
+  weights=None, reparameterize=True, tol=None) -> FitResult`: one experiment; it stops
+  when the Gauss-Newton decrease left is a small fraction of the noise variance and holds
+  parameters the data do not determine (`Tolerances`, `fitting._stopping`).
 - `fit_datasets(model, datasets, ...) -> FitResult`: several experiments (`Dataset`) at once.
 - `fit_batch(model, t, x, F, v=None, *, weights=None, ...) -> FitResult`: B independent fits
   in one compiled call (arrays ``(B, n)``, or ragged lists padded with weight-0 samples;
@@ -24,7 +26,10 @@ properties pytree beside the model, never inside it.
   (paper parameters), ``cov_fit``/``corr_fit`` (the parameters the solver worked in),
   ``prediction``,
   ``residuals``, ``rmse`` (N), ``nrmse`` (rmse / range of F), ``r2``, ``condition_number``,
-  ``result`` (optimistix code), ``status``, ``converged``, ``num_steps``, ``summary()``.
+  ``result`` (optimistix code), ``status``, ``converged`` (a stopping rule fired, R2 >=
+  0.1, no parameter pinned at a bound), ``num_steps``, ``stopped`` (why, in words),
+  ``undetermined`` (parameters held because the data do not determine them),
+  ``at_bound``, ``summary()``.
   Parameter names: two-state ``Fs, Fc, Vs, delta, sigma2, a, b, c, alpha, beta, l1, C``;
   GMS ``Fs, Fc, Vs, delta, sigma2, C, nu_i, k_i``; LuGre ``Fs, Fc, Vs, delta, sigma0,
   sigma1, sigma2``; Tustin ``Fs, Fc, Vs, delta, sigma2``.
@@ -32,6 +37,9 @@ properties pytree beside the model, never inside it.
 - `initial_model(kind, t, x, F, v=None, *, n_elements=5)`: a starting model of kind
   ``"two-state"``, ``"gms"``, ``"lugre"`` or ``"tustin"`` with scales estimated from the data
   (force levels, presliding extent after reversals); what ``jaxfric fit`` starts from.
+
+- `Tolerances(decrease=0.01, undetermined=1.0, ftol=1e-6, xtol=1e-6, gtol=1e-8)`: when
+  a fit is done, passed as ``fit(..., tol=Tolerances(...))``.
 
 **Parameters beside the model**
 
@@ -117,6 +125,7 @@ from ._staged import (
     StagedResult as StagedResult,
 )
 from ._start import initial_model as initial_model
+from ._stopping import Tolerances as Tolerances
 from ._transforms import (
     AbstractTransform as AbstractTransform,
     Exp as Exp,

@@ -8,23 +8,26 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
   ``y = y_c + d^-1 * z``, where ``d`` holds the norms of the Jacobian's columns (the largest
   seen so far, as MINPACK keeps them). In those coordinates every column has unit norm, so
   the Levenberg-Marquardt damping ``lambda*I`` acts like Marquardt's ``lambda*diag(J^T J)``
-  and the damped steps are well conditioned whatever the parameters' units. Without it, a
-  two-state fit to 1e4 samples of a foreign truth crept along a badly scaled valley for 300
-  steps and stopped 19 % above the RMSE the scaled solve reached in about 100.
+  and the damped steps are well conditioned whatever the parameters' units.
 - *Stopping rules* (`Tolerances`, documented defaults), any one of which ends the fit as
-  converged: optimistix's own test (last step and change of every residual below
-  ``atol + rtol*|value|``); the cost fell by less than `ftol` (relative) over the last
-  `CHUNK` steps or more; those steps changed the prediction by less than `xtol` of the
-  residual's norm; every column of the Jacobian is nearly orthogonal to the residual
-  (MINPACK's ``gtol``: the largest cosine below `gtol`); the Gauss-Newton step still left
-  is shorter than `setol` standard errors (the statistician's test: what is left is far
-  below the noise, however slowly the solver would creep there). The look-back is counted in steps,
-  not calls, so the decision does not depend on how fast the machine runs.
+  converged. Inside the compiled loop, after every step: the statistical rule of
+  `fitting._stopping` (the Gauss-Newton decrease of the cost left over the directions the
+  data determine is at most `decrease` noise variances), and optimistix's own test (last
+  step and change of every residual below ``atol + rtol*|value|``). Between chunks: the
+  cost fell by less than `ftol` (relative) over the last `CHUNK` steps or more; those
+  steps changed the prediction by less than `xtol` of the residual's norm; every column of
+  the Jacobian is nearly orthogonal to the residual (MINPACK's ``gtol``), for data without
+  noise, where the noise variance is round-off. The look-back is counted in steps, not
+  calls, so the decision does not depend on how fast the machine runs.
+- *Undetermined parameters*: once a rule fires, a free scalar parameter whose standard
+  error in the solver's coordinates exceeds `Tolerances.undetermined` (a factor e for a
+  positive parameter) is held at its start and the others go on (`undetermined_leaves`);
+  the result names it (`FitResult.undetermined`).
 - *Trust region*: each call starts from the previous call's trust-region size (its
   Levenberg-Marquardt damping), not from the initial one.
 - `max_steps` and the tolerances are plain Python values here and traced values in the
-  compiled chunk (the last chunk's step budget is an array, `_Budgeted`): changing them does
-  not recompile, and a second fit of the same shapes reuses the compiled chunk.
+  compiled chunk (the last chunk's step budget is an array, `fitting._stopping.Stopping`):
+  changing them does not recompile, and a second fit of the same shapes reuses the compiled chunk.
 - Chunk sizes are fixed (`MIN_CHUNK` steps for the first call, which also compiles, then
   `CHUNK`), not chosen from the measured time per step: the scaling is renewed and the
   solver restarted at chunk boundaries, so boundaries that moved with the machine's load
@@ -37,7 +40,6 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
 import dataclasses
 import time
 from collections.abc import Callable
-from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -50,78 +52,15 @@ from jaxfric._compile import jit
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
 from ._result import status_name
-from ._solve import _Core, _evaluate_impl, _finish_impl, STUCK_COSINE
+from ._solve import _Core, _evaluate_impl, _finish_impl, MIN_R2, STUCK_COSINE
+from ._stopping import decrease_left, STALL_PREDICTED, STALL_STEPS, Stopping, Tolerances
+from ._transforms import Exp, Sigmoid, Softplus
 
 
 #: Most solver steps per compiled call (static: the loop bound of `_chunk`).
 CHUNK = 32
 #: Fewest steps per call (the first step of a call only evaluates the residual at its start).
 MIN_CHUNK = 8
-
-
-@dataclasses.dataclass(frozen=True)
-class Tolerances:
-    """When a fit is done (any one rule; see the module docstring).
-
-    - `ftol`: relative decrease of the cost ``sum(r^2)/2`` over the last chunk of steps;
-    - `xtol`: change of the prediction by the last chunk's steps, linearised
-      (``|J dy|``), relative to the norm of the residual;
-    - `gtol`: largest cosine between a Jacobian column and the residual;
-    - `setol`: length, in standard errors, of the Gauss-Newton step still left (``sqrt(z2)``,
-      ``z2 = |J dy|^2 / s^2``: the cost a full step could still remove, in units of the
-      noise variance ``s^2 = RSS/n``). Below 0.1 the parameters are settled to a tenth of
-      their uncertainty: further steps only creep along weakly determined directions.
-    """
-
-    ftol: float = 1e-6
-    xtol: float = 1e-6
-    gtol: float = 1e-8
-    setol: float = 0.1
-
-
-class _Budgeted(optx.AbstractLeastSquaresSolver):
-    """`solver` that also stops after `budget` steps, and whose trust region (for a
-    solver with one, e.g. Levenberg-Marquardt) starts at `step_size` when it is > 0: the
-    previous chunk's, so that a chunk goes on where the last one stopped instead of
-    starting again from the initial damping. Both are arrays: new values do not
-    recompile."""
-
-    solver: Any
-    budget: Array
-    step_size: Array
-
-    @property
-    def rtol(self):
-        return self.solver.rtol
-
-    @property
-    def atol(self):
-        return self.solver.atol
-
-    @property
-    def norm(self):
-        return self.solver.norm
-
-    def init(self, fn, y, args, options, f_struct, aux_struct, tags):
-        inner = self.solver.init(fn, y, args, options, f_struct, aux_struct, tags)
-        if hasattr(inner, "search_state") and hasattr(inner.search_state, "step_size"):
-            size = inner.search_state.step_size
-            inner = eqx.tree_at(lambda s: s.search_state.step_size, inner,
-                                jnp.where(self.step_size > 0, self.step_size, size))
-        return inner, jnp.zeros((), jnp.int32)
-
-    def step(self, fn, y, args, options, state, tags):
-        inner, count = state
-        y, inner, aux = self.solver.step(fn, y, args, options, inner, tags)
-        return y, (inner, count + 1), aux
-
-    def terminate(self, fn, y, args, options, state, tags):
-        inner, count = state
-        done, result = self.solver.terminate(fn, y, args, options, inner, tags)
-        return done | (count >= self.budget), result
-
-    def postprocess(self, fn, y, aux, args, options, state, tags, result):
-        return self.solver.postprocess(fn, y, aux, args, options, state[0], tags, result)
 
 
 class _ChunkOut(eqx.Module):
@@ -133,6 +72,8 @@ class _ChunkOut(eqx.Module):
     force: Array
     overflow: Array
     step_size: Array  # the trust region's at the end (0 for a solver without one)
+    left: Array  # `decrease_left` at the end: the Gauss-Newton decrease left / s^2
+    undetermined: Array  # how many free directions are undetermined there
 
 
 def _scaled_residuals(z, args):
@@ -142,22 +83,29 @@ def _scaled_residuals(z, args):
 
 @jit
 def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
-           step_size) -> _ChunkOut:
+           step_size, decrease, undetermined) -> _ChunkOut:
     """At most ``min(budget, CHUNK)`` solver steps from `y_c` in the coordinates
-    ``z = (y - y_c) / inv_d``; residuals and Jacobian at the last accepted point are taken
-    from the solver's state (see `fitting._solve._solve_impl` for why)."""
+    ``z = (y - y_c) / inv_d``, each followed by the statistical rule (`Stopping`);
+    residuals and Jacobian at the last accepted point are taken from the solver's state
+    (see `fitting._solve._solve_impl` for why)."""
     args = (problem, data, _force_scale(data), y_c, inv_d)
-    sol = optx.least_squares(_scaled_residuals, _Budgeted(solver, budget, step_size),
-                             jnp.zeros_like(y_c), args, has_aux=True, max_steps=CHUNK,
-                             throw=False)
+    mask = problem.layout.coordinate_mask()
+    n_obs = jnp.sum(data.weights > 0).astype(y_c.dtype)
+    stopping = Stopping(solver, budget, step_size, decrease, undetermined, inv_d, mask,
+                        n_obs)
+    sol = optx.least_squares(_scaled_residuals, stopping, jnp.zeros_like(y_c), args,
+                             has_aux=True, max_steps=CHUNK, throw=False)
     inner = sol.state[0]
     force, overflow = inner.aux
     search = getattr(inner, "search_state", None)
     size = getattr(search, "step_size", jnp.zeros(()))
+    resid = inner.f_info.residual.ravel()
+    jac = inner.f_info.jac.as_matrix() / inv_d
+    left, count = decrease_left(jac, resid, mask, n_obs, undetermined)
     return _ChunkOut(y=y_c + inv_d * sol.value, result=sol.result,
-                     num_steps=sol.stats["num_steps"], resid=inner.f_info.residual.ravel(),
-                     jac=inner.f_info.jac.as_matrix() / inv_d, force=force,
-                     overflow=overflow, step_size=jnp.asarray(size, y_c.dtype))
+                     num_steps=sol.stats["num_steps"], resid=resid, jac=jac, force=force,
+                     overflow=overflow, step_size=jnp.asarray(size, y_c.dtype), left=left,
+                     undetermined=count)
 
 
 _evaluate = jit(_evaluate_impl)
@@ -190,13 +138,21 @@ class _Progress:
 
 
 
-def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances,
-                 mask, n_obs: int):
+def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances):
     """``(why, converged)`` after this chunk, ``why`` in words, or ``(None, False)`` to go
     on. `ref` is ``(steps, cost, y)`` of the fit at least `CHUNK` steps before (or at its
     start): the cost and step rules look back that far whatever the chunks' sizes, so the
     decision does not depend on how fast the machine ran them."""
+    left = float(out.left)
     if int(out.num_steps) < budget:
+        if left <= tol.decrease:
+            return (f"the Gauss-Newton decrease left is {left:.2g} noise variances "
+                    f"(decrease = {tol.decrease:g}): nothing the data can tell is left",
+                    True)
+        if left <= STALL_PREDICTED:
+            return (f"the steps stalled: the last {STALL_STEPS} gained under "
+                    f"{tol.decrease:g} noise variances, {left:.2g} predicted (or the "
+                    "solver's own test)", True)
         return "the solver's own test (last step and residual change within rtol/atol)", True
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"
@@ -216,24 +172,66 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
                 "residual", True)
     if _max_cosine(out.jac, resid) <= tol.gtol:
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", True
-    left = _step_left(out.jac, resid, mask, n_obs)
-    if left <= tol.setol:
-        return (f"the Gauss-Newton step left is {left:.2g} standard errors (setol = "
-                f"{tol.setol:g}): the parameters are settled", True)
     return None, False
 
 
-def _step_left(jac, resid, mask, n_obs: int) -> float:
-    """`fitting._solve._remaining_step` in NumPy: the length, in standard errors, of the
-    Gauss-Newton step left at this point (free coordinates `mask`)."""
-    jf = np.asarray(jac)[:, np.asarray(mask) > 0]
-    resid = np.asarray(resid)
-    if jf.shape[1] == 0:
-        return 0.0
-    u, sv, _ = np.linalg.svd(jf, full_matrices=False)
-    keep = sv > 1e-10 * sv.max() if sv.size and sv.max() > 0 else np.zeros(sv.shape, bool)
-    projected = float(np.sum((u.T @ resid)[keep] ** 2))
-    return float(np.sqrt(projected / max(float(np.sum(resid**2)) / n_obs, 1e-300)))
+_BOUNDED = (Exp, Softplus, Sigmoid)
+
+
+def undetermined_leaves(jac, resid, layout, n_obs: int, limit: float,
+                        pinned=()) -> list[int]:
+    """Leaves to hold because the data do not determine them: while some free scalar leaf
+    has a standard error above `limit` in the solver's coordinates (``s^2 (J^T J)^-1``
+    over the free coordinates, ``s^2 = RSS/(n - p)``), the one with the largest is held
+    and the others' errors are computed again (a pair the data fix only together then
+    keeps one member free). Only scalar leaves on a log or logit scale are judged (`Exp`,
+    `Softplus`, `Sigmoid`: there an error of 1 means not even a factor e, or a logit of 1);
+    an `Identity` coordinate is scaled by its start, which says nothing of its precision
+    when the value is near 0, and vector leaves (GMS weights and stiffnesses) are kept.
+    Leaves `pinned` at a bound of their transform are not held either: their error is
+    huge because the fit collapsed there, which the result reports as such."""
+    jac, resid = np.asarray(jac), np.asarray(resid)
+    leaf_of = layout.coordinate_leaf()
+    free = np.asarray(layout.leaf_free).astype(bool).copy()
+    scalar = np.array([size == 1 and shape == () and isinstance(tr, _BOUNDED)
+                       and k not in pinned for k, (size, shape, tr) in
+                       enumerate(zip(layout.sizes, layout.shapes, layout.transforms))])
+    held: list[int] = []
+    while True:
+        cols = np.flatnonzero(free[leaf_of])
+        if cols.size == 0:
+            return held
+        jf = jac[:, cols]
+        norms = np.linalg.norm(jf, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
+        eig, vec = np.linalg.eigh((jf / norms).T @ (jf / norms))
+        eig = np.maximum(eig, 1e-15 * max(float(eig.max()), 1e-300))
+        var = ((vec**2) / eig).sum(axis=1) / norms**2
+        s2 = float(np.sum(resid**2)) / max(n_obs - cols.size, 1)
+        se = np.sqrt(s2 * var)
+        leaves = leaf_of[cols]
+        bad = [(se[k], leaves[k]) for k in range(cols.size)
+               if scalar[leaves[k]] and not se[k] <= limit]
+        if not bad:
+            return held
+        worst = max(bad)[1]
+        held.append(int(worst))
+        free[worst] = False
+
+
+def _hold(problem: _Problem, leaves: list[int]) -> _Problem:
+    """`problem` with `leaves` held at their values in its template (the start)."""
+    flags = np.asarray(problem.layout.leaf_free).copy()
+    flags[leaves] = False
+    return eqx.tree_at(lambda p: p.layout.leaf_free, problem,
+                       jnp.asarray(flags, dtype=problem.layout.leaf_free.dtype))
+
+
+def _next_budget(steps: int, max_steps: int) -> int:
+    """Steps for the next call: `MIN_CHUNK` for the first (it also compiles, and the first
+    progress report comes soon), `CHUNK` after, no more than `max_steps` allows. Fixed, so
+    that the fit does not depend on the machine's speed (module docstring)."""
+    return min(MIN_CHUNK if steps == 0 else CHUNK, max_steps - steps)
 
 
 def _reference(history: list, steps: int) -> tuple:
@@ -244,40 +242,78 @@ def _reference(history: list, steps: int) -> tuple:
     return steps - k, cost, y
 
 
-def _next_budget(steps: int, max_steps: int) -> int:
-    """Steps for the next call: `MIN_CHUNK` for the first (it also compiles, and the first
-    progress report comes soon), `CHUNK` after, no more than `max_steps` allows. Fixed, so
-    that the fit does not depend on the machine's speed (module docstring)."""
-    return min(MIN_CHUNK if steps == 0 else CHUNK, max_steps - steps)
+@dataclasses.dataclass
+class Solved:
+    """What `solve_chunked` returns: the core arrays, why it stopped, the problem as
+    finally solved (with any undetermined leaves held) and the names of those leaves."""
+
+    core: _Core
+    stopped: str
+    problem: _Problem
+    undetermined: tuple[str, ...] = ()
+
+
+def _run(problem: _Problem, y, d, data: Dataset, solver, budget: int, step_size,
+         tol: Tolerances) -> _ChunkOut:
+    """One chunk of at most `budget` steps from `y`, scaled by the column norms `d`."""
+    # Columns far weaker than the strongest are scaled as if 1e-3 of it: a nearly flat
+    # column (a parameter saturating its bounded transform) would otherwise get steps so
+    # long that they push it further into its bound.
+    floor = 1e-3 * d.max() if d.max() > 0 else 0.0
+    inv_d = jnp.asarray(1.0 / np.where(d > 0, np.maximum(d, floor), 1.0))
+    return _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
+                  step_size, jnp.asarray(tol.decrease, float),
+                  jnp.asarray(tol.undetermined, float))
+
+
+def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
+    out = ""
+    if held:
+        out += f"; undetermined by the data, held at their start: {', '.join(held)}"
+    if loose:
+        out += f"; undetermined by the data (no steps left to hold them): {', '.join(loose)}"
+    return out
+
+
+def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset, result,
+                          steps: int):
+    """The core of the fit at `y` (the `held` leaves at their start values) with every
+    other array as for `start`, the problem before any hold: the covariance then spans the
+    held leaves too, so that the errors of the others include what the data leave free
+    (a parameter that trades off with an undetermined one is not reported sharper than it
+    is); the held leaves' own errors are reported as unknown (`FitResult.undetermined`)."""
+    coord = np.isin(start.layout.coordinate_leaf(), held)
+    y_full = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
+    resid, jac, force, overflow = _evaluate(start, y_full, data)
+    core = _finish(start, y_full, data, resid, jac, force, overflow, result,
+                   jnp.asarray(steps))
+    return core, start
 
 
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                   tol: Tolerances | None = None,
-                  progress: Callable[[_Progress], None] | None = None) -> tuple[_Core, str]:
-    """Solve in chunks (module docstring); returns the core arrays and why it stopped."""
+                  progress: Callable[[_Progress], None] | None = None) -> Solved:
+    """Solve in chunks (module docstring): until a stopping rule fires, then, if the data
+    leave some parameters undetermined (`undetermined_leaves`), hold them at their start
+    and go on with the others from where the fit stood (within the same `max_steps`)."""
     tol = Tolerances() if tol is None else tol
     if max_steps <= 0:
         resid, jac, force, overflow = _evaluate(problem, y0, data)
         core = _finish(problem, y0, data, resid, jac, force, overflow,
                        optx.RESULTS.nonlinear_max_steps_reached, jnp.asarray(0))
-        return core, "max_steps = 0: no step taken"
-    y, steps = y0, 0
-    mask = np.asarray(problem.layout.coordinate_mask())
+        return Solved(core, "max_steps = 0: no step taken", problem)
+    y, steps, start = y0, 0, problem
     n_obs = int(np.sum(np.asarray(data.weights) > 0))
     d = np.zeros(np.shape(y0))
     step_size = jnp.zeros(())
     history = [(0, np.inf, np.asarray(y0))]  # (steps, cost, y) after each call
     result, reason, converged, out = optx.RESULTS.successful, None, False, None
+    held: list[int] = []
+    unheld: list[int] = []
     t0 = time.perf_counter()
     while steps < max_steps:
         budget = _next_budget(steps, max_steps)
-        # Columns far weaker than the strongest are scaled as if 1e-3 of it: a nearly flat
-        # column (a parameter saturating its bounded transform) would otherwise get steps so
-        # long that they push it further into its bound.
-        floor = 1e-3 * d.max() if d.max() > 0 else 0.0
-        inv_d = jnp.asarray(1.0 / np.where(d > 0, np.maximum(d, floor), 1.0))
-        out = _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
-                     step_size)
+        out = _run(problem, y, d, data, solver, budget, step_size, tol)
         taken = int(out.num_steps)
         steps += taken
         result = out.result
@@ -287,15 +323,29 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             reason, y = f"the solver stopped ({why})", out.y
             break
         # (The start's cost is not evaluated: inf, so the cost rules wait for a reference.)
-        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol,
-                                         mask, n_obs)
+        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol)
         y, step_size = out.y, out.step_size
         history.append((steps, cost, np.asarray(y)))
         d = np.maximum(d, _column_norms(out.jac))
         if progress is not None:
             progress(_Progress(steps, cost, time.perf_counter() - t0))
-        if reason is not None:
-            break
+        if reason is not None or steps >= max_steps:
+            # Judged only where the model explains the data (R2 >= MIN_R2; the residuals
+            # are in units of the force's standard deviation): elsewhere ``s^2`` is no
+            # estimate of the noise, and the result is not converged anyway.
+            pinned = np.flatnonzero(np.asarray(problem.layout.at_bound(out.y)))
+            more = undetermined_leaves(out.jac, out.resid, problem.layout, n_obs,
+                                       tol.undetermined, set(pinned.tolist())
+                                       ) if 2 * cost / n_obs <= 1 - MIN_R2 else []
+            if steps >= max_steps:
+                unheld = more
+            if not more or steps >= max_steps:
+                break
+            # Held at the start; the others go on from here (the cost rules start again).
+            held += more
+            problem = _hold(problem, more)
+            history = [(steps, np.inf, np.asarray(y))]
+            reason, converged, step_size = None, False, jnp.zeros(())
     if reason is None:
         result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
                           f"max_steps = {max_steps} reached")
@@ -303,4 +353,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         result = optx.RESULTS.nonlinear_divergence
     core = _finish(problem, y, data, out.resid, out.jac, out.force, out.overflow, result,
                    jnp.asarray(steps))
-    return core, reason
+    if held:
+        core, problem = _with_full_covariance(start, y0, y, held, data, result, steps)
+    names = [tuple(problem.layout.names[i] for i in k) for k in (held, unheld)]
+    return Solved(core, reason + _held_words(*names), problem, names[0] + names[1])

@@ -1,6 +1,8 @@
 """Least-squares fits of any jaxfric model to measured ``(t, x, F)``.
 
-**Solver.** `optimistix.LevenbergMarquardt` by default, because:
+**Solver.** Levenberg-Marquardt by default (`fitting._solve.LevenbergMarquardt`:
+optimistix's, with a trust region that grows whenever a step achieves more than half its
+predicted decrease), because:
 
 - the problem is a nonlinear least-squares problem with many more samples than parameters
   (thousands against 5-25), so a Gauss-Newton method that uses ``J^T J`` as its curvature
@@ -39,11 +41,12 @@ import optimistix as optx
 
 import jaxfric
 
-from ._chunked import solve_chunked, Tolerances
+from ._chunked import solve_chunked
 from ._data import absurd_sample, check_dataset, Dataset, stack
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
-from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solver
+from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solver, MIN_R2
+from ._stopping import Tolerances
 
 
 def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Dataset, solver,
@@ -56,18 +59,36 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     """
     solver = default_solver() if solver is None else solver
     problem = problem.bounded(data)
+    undetermined: tuple[str, ...] = ()
     if isinstance(solver, optx.AbstractLeastSquaresSolver):
-        core, stopped = solve_chunked(problem, y0, data, solver, max_steps,
-                                      tol or Tolerances(), progress)
+        solved = solve_chunked(problem, y0, data, solver, max_steps, tol or Tolerances(),
+                               progress)
+        core, stopped, problem = solved.core, solved.stopped, solved.problem
+        undetermined = solved.undetermined
     else:  # a minimiser: one compiled loop (no Jacobian to scale by)
         core, stopped = _solve(problem, y0, data, solver, max_steps), ""
+    stopped = _honest(core, stopped, problem)
     _warn_overflow(core)
     # Sliced and subtracted in NumPy: op by op in JAX, each new length compiles kernels.
     force = np.asarray(core.prediction)
     pred = [force[i, : d.t.shape[0]] for i, d in enumerate(checked)]
     resid = tuple(jnp.asarray(p - np.asarray(d.F)) for p, d in zip(pred, checked))
     pred = tuple(jnp.asarray(p) for p in pred)
-    return _assemble(problem, core, pred, resid, stopped), core.fit_model
+    return (_assemble(problem, core, pred, resid, stopped, undetermined), core.fit_model)
+
+
+def _honest(core, stopped: str, problem: _Problem) -> str:
+    """`stopped` with the reason a fit whose stopping rule fired is still not converged
+    (`fitting._solve._finish_impl`: R2 below `MIN_R2`, a parameter pinned at a bound)."""
+    bound = [n for n, b in zip(problem.layout.names, np.asarray(core.at_bound)) if b]
+    why = []
+    if float(core.r2) < MIN_R2:
+        why.append(f"R2 = {float(core.r2):.3g} < {MIN_R2:g}: the data are not explained")
+    if bound:
+        why.append(f"pinned at a bound of its transform: {', '.join(bound)}")
+    if why and stopped:
+        stopped += "; NOT converged: " + "; ".join(why)
+    return stopped
 
 
 def fit_datasets(
@@ -79,10 +100,7 @@ def fit_datasets(
     solver=None,
     max_steps: int = 256,
     reparameterize: bool = True,
-    ftol: float = Tolerances.ftol,
-    xtol: float = Tolerances.xtol,
-    gtol: float = Tolerances.gtol,
-    setol: float = Tolerances.setol,
+    tol: Tolerances | None = None,
     progress=None,
 ) -> FitResult:
     """Fit `model` to several experiments at once (one residual vector for all of them).
@@ -96,8 +114,8 @@ def fit_datasets(
         raise ValueError("need at least one dataset")
     checked = [check_dataset(d, where=f"dataset {i}: ") for i, d in enumerate(datasets)]
     problem, y0 = _problem(model, props, free, reparameterize)
-    result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps,
-                             Tolerances(ftol, xtol, gtol, setol), progress)
+    result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps, tol,
+                             progress)
     return _as_simulated(result, checked)
 
 
@@ -162,10 +180,7 @@ def fit(
     max_steps: int = 256,
     weights=None,
     reparameterize: bool = True,
-    ftol: float = Tolerances.ftol,
-    xtol: float = Tolerances.xtol,
-    gtol: float = Tolerances.gtol,
-    setol: float = Tolerances.setol,
+    tol: Tolerances | None = None,
     progress=None,
     load=None,
     a=None,
@@ -186,13 +201,13 @@ def fit(
       custom transforms, bounds or scales.
     - `solver`: an optimistix least-squares solver or minimiser (default `default_solver`).
     - `max_steps`: iteration limit; reaching it is reported, not raised.
-    - `ftol`, `xtol`, `gtol`, `setol`: when the fit is done (`fitting._chunked.Tolerances`:
-      the cost fell by less than `ftol` relative over the last steps; the last steps
-      changed the prediction by less than `xtol` of the residual's norm; no Jacobian column
-      has a cosine above `gtol` with the residual; the Gauss-Newton step left is shorter
-      than `setol` standard errors), besides the solver's own rtol/atol test.
-      Neither these nor `max_steps` recompile: a second fit of the same shapes reuses the
-      compiled solver. Why the fit stopped is in ``result.stopped``.
+    - `tol`: when the fit is done, a `Tolerances` (default ``Tolerances()``): chiefly,
+      when the Gauss-Newton decrease of the cost left is a small fraction of the noise
+      variance (`fitting._stopping`), tested after every step; parameters the data do not
+      determine are held at their start (``result.undetermined``). Neither `tol` nor
+      `max_steps` recompiles: a second fit of the same shapes reuses the compiled solver.
+      Why the fit stopped is in ``result.stopped``. Converged means a stopping rule fired,
+      R2 >= `fitting._solve.MIN_R2` and no parameter is pinned at a bound of its transform.
     - `progress`: called after every compiled chunk of steps (about a second each) with
       ``.steps``, ``.cost`` and ``.seconds``; Ctrl-C stops the fit between chunks.
     - `weights`: per-sample weights >= 0 (``None``: all 1).
@@ -210,8 +225,8 @@ def fit(
     """
     data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load, a=a)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
-                       max_steps=max_steps, reparameterize=reparameterize, ftol=ftol,
-                       xtol=xtol, gtol=gtol, setol=setol, progress=progress)
+                       max_steps=max_steps, reparameterize=reparameterize, tol=tol,
+                       progress=progress)
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), out,
                        (out.prediction[0], out.residuals[0]))
 
@@ -232,13 +247,17 @@ def fit_batch(
     devices: Sequence[jax.Device] | None = None,
     vectorize: bool = False,
     a=None,
+    tol: Tolerances | None = None,
 ) -> FitResult:
     """Fit `model` separately to each of B datasets in one compiled call.
 
     `t`, `x`, `F`, `v`, `weights`, `a` (the acceleration, as for `fit`) are arrays of shape
     ``(B, n)``, or sequences of B 1-D arrays of different lengths (padded to the longest
     with weight-0 samples). Every dataset starts
-    from the same `model`. Other arguments are as for `fit`.
+    from the same `model`. Other arguments are as for `fit`; of `tol`, the statistical
+    rule (`decrease`, `undetermined`) applies, tested after every step of each dataset's
+    loop, as does the solver's own test (`fitting._stopping.Tolerances`); undetermined
+    parameters are not held (one compiled loop).
 
     **Returns:** a `FitResult` whose arrays have a leading axis B (``result[i]`` is dataset i;
     ``status`` is a list). `prediction` and `residuals` are ``(B, n)`` including any padding
@@ -291,11 +310,13 @@ def fit_batch(
     # One dataset per fit: (B, 1, n).
     data = jax.tree.map(lambda a: a[:, None, :], stacked)
     problem = problem.bounded(data)
+    tol = Tolerances() if tol is None else tol
+    rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
     if devices is not None and len(devices) > 1:
         core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices),
-                                       vectorize)
+                                       vectorize, *rule)
     else:
-        core = _solve_batch(problem, y0, data, solver, max_steps, vectorize)
+        core = _solve_batch(problem, y0, data, solver, max_steps, vectorize, *rule)
     _warn_overflow(core)
     pred = np.asarray(core.prediction)[:, 0, :]  # NumPy: see `_fit_stacked`
     result = _assemble(problem, core, jnp.asarray(pred),

@@ -125,6 +125,19 @@ class Layout(eqx.Module):
         parts = [jnp.full((s,), self.leaf_free[i]) for i, s in enumerate(self.sizes)]
         return jnp.concatenate(parts).astype(jnp.asarray(0.0).dtype)
 
+    def at_bound(self, y: Array) -> Array:
+        """One flag per leaf: a free leaf with a coordinate pinned at a bound of its
+        transform (`fitting._transforms.PINNED`)."""
+        flags, start = [], 0
+        for i, (tr, size) in enumerate(zip(self.transforms, self.sizes)):
+            flags.append(self.leaf_free[i] & jnp.any(tr.at_bound(y[start:start + size])))
+            start += size
+        return jnp.stack(flags) if flags else jnp.zeros((0,), bool)
+
+    def coordinate_leaf(self) -> np.ndarray:
+        """The index of the leaf of each coordinate of ``y`` (static)."""
+        return np.repeat(np.arange(len(self.sizes)), self.sizes)
+
     def to_vector(self, leaves: list[Array]) -> Array:
         """``y`` for the parameter `leaves`. A held leaf gets the coordinates 0 (its value
         is never read back from ``y``), so that it may sit outside its transform's domain,

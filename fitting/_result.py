@@ -75,7 +75,15 @@ class FitResult(eqx.Module):
     - `free`: names of the fitted leaves; `overflow`: memory-stack overflows in the final
       simulation (0 unless the model's ``stack_size`` is too small).
     - `stopped`: why the fit stopped, in words (which stopping rule of
-      `fitting._chunked.Tolerances` fired, or the step limit); empty for `fit_batch`.
+      `fitting._stopping.Tolerances` fired, or the step limit, and why a fit whose rule
+      fired is still not converged); empty for `fit_batch`.
+    - `undetermined`: names (of `fit_names`) of the parameters the data do not determine
+      (standard error above `Tolerances.undetermined` in the solver's coordinates: not
+      even a factor e for a positive parameter). `fit` holds them at their start values;
+      their standard errors, and those of paper parameters derived from them, are NaN.
+      Empty for `fit_batch`.
+    - `at_bound`: one flag per parameter leaf (`leaf_names`): free and pinned at a bound of
+      its transform (`fitting._transforms.PINNED`), e.g. ``Fs`` collapsed to 1e-9 N.
 
     Weakly determined directions are reported, not iterated on: `weakly_determined` lists
     the pairs of fitted parameters (of the solver's representation) whose correlation
@@ -83,7 +91,9 @@ class FitResult(eqx.Module):
     number. The data fix such a pair's combination but hardly each one alone; the stopping
     rules end the fit once the cost stops falling, not once these directions settle.
 
-    Properties: `converged` (result is successful), `status` (the code's name).
+    Properties: `converged` (result is successful: a stopping rule fired, R2 is at least
+    `fitting._solve.MIN_R2` and no parameter is pinned at a bound), `status` (the code's
+    name).
     """
 
     model: Any
@@ -106,7 +116,10 @@ class FitResult(eqx.Module):
     names: tuple[str, ...] = eqx.field(static=True)
     fit_names: tuple[str, ...] = eqx.field(static=True)
     free: tuple[str, ...] = eqx.field(static=True)
+    at_bound: Array | None = None
+    leaf_names: tuple[str, ...] = eqx.field(static=True, default=())
     stopped: str = eqx.field(static=True, default="")
+    undetermined: tuple[str, ...] = eqx.field(static=True, default=())
 
     @property
     def converged(self) -> Array:
@@ -140,6 +153,9 @@ class FitResult(eqx.Module):
                 f"RMSE: {float(self.rmse):.4g} N   NRMSE: {float(self.nrmse):.4g}   "
                 f"R2: {float(self.r2):.6f}")
         lines = [head] + ([f"stopped: {self.stopped}"] if self.stopped else [])
+        if self.undetermined:
+            lines.append(f"undetermined by the data (held at their start, no standard "
+                         f"error): {', '.join(self.undetermined)}")
         for name in self.names:
             v, s = float(self.params[name]), float(self.stderr[name])
             rel = f"{100 * s / abs(v):9.3g} %" if v != 0 else ""
@@ -158,8 +174,23 @@ def weak_lines(res: FitResult) -> list[str]:
     return out + [f"  {a} ~ {b}: correlation {c:+.4f}" for a, b, c in pairs]
 
 
+#: The paper's shape parameters, all derived from the fitted `NormalizedPaperShape`.
+_PAPER_SHAPE = ("a", "b", "c", "alpha", "beta", "l1")
+_NORMALIZED_SHAPE = ("l1", "alpha", "beta_rel", "curvature", "quartic")
+
+
+def _unknown_errors(names, undetermined, paper_shape: bool) -> set[str]:
+    """The reported parameters whose standard error is unknown: the undetermined ones and,
+    for a reparameterised `PaperShape`, every paper shape parameter if a normalised shape
+    parameter is undetermined (each is derived from all of them)."""
+    out = set(undetermined) & set(names)
+    if paper_shape and set(undetermined) & set(_NORMALIZED_SHAPE):
+        out |= set(_PAPER_SHAPE) & set(names)
+    return out
+
+
 def _assemble(problem: _Problem, core: _Core, prediction, residuals,
-              stopped: str = "") -> FitResult:
+              stopped: str = "", undetermined: tuple[str, ...] = ()) -> FitResult:
     """Turn solver arrays into a `FitResult` (works on batched cores too)."""
     layout = problem.layout
     batched = core.y.ndim == 2
@@ -169,11 +200,13 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals,
 
     names = _params.natural_names(first(core.model))
     leaf_free = np.asarray(layout.leaf_free)
+    unknown = _unknown_errors(names, undetermined, problem.paper_shape)
+    stderr = [np.nan if n in unknown else s for n, s in zip(names, core.stderr)]
     return FitResult(
         model=core.model,
         fit_model=core.fit_model,
         params=dict(zip(names, core.params)),
-        stderr=dict(zip(names, core.stderr)),
+        stderr=dict(zip(names, stderr)),
         cov=core.cov_natural,
         corr=core.corr,
         cov_fit=core.cov_fit,
@@ -190,7 +223,10 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals,
         names=names,
         fit_names=_params.natural_names(first(core.fit_model)),
         free=tuple(n for n, f in zip(layout.names, leaf_free) if f),
+        at_bound=core.at_bound,
+        leaf_names=layout.names,
         stopped=stopped,
+        undetermined=tuple(undetermined),
     )
 
 

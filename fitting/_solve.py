@@ -4,13 +4,16 @@ condition number, metrics); batches of independent fits, on one device or spread
 several.
 """
 
+from collections.abc import Callable
 from typing import Any
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import lineax as lx
 import numpy as np
 import optimistix as optx
+from equinox.internal import ω
 from jaxtyping import Array
 
 from jaxfric._compile import jit
@@ -18,6 +21,7 @@ from jaxfric._compile import jit
 from . import _params
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
+from ._stopping import decrease_left, Stopping, Tolerances
 
 
 # Eigenvalues of the equilibrated J^T J below this fraction of the largest are treated as
@@ -25,16 +29,63 @@ from ._problem import _force_scale, _Problem, _residuals
 _EIG_FLOOR = 1e-15
 
 
-def default_solver() -> optx.LevenbergMarquardt:
-    """``optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)`` (see the module docstring).
+class NielsenTrustRegion(optx.ClassicalTrustRegion):
+    """optimistix's classical trust region with Nielsen's continuous update (H. B. Nielsen
+    1999, as in Transtrum and Sethna's geodesic Levenberg-Marquardt): after a step whose
+    achieved decrease is ``rho`` times the decrease its linear model predicted, the region
+    is multiplied by ``1 / max(1/3, 1 - (2 rho - 1)^3)`` if the step is accepted (3x for a
+    step as good as predicted, unchanged at ``rho = 1/2``, shrinking below it) and by 1/4
+    if it is rejected (``rho < 0.01``, as optimistix's). optimistix's own grows only above
+    ``rho = 0.99``, which a nonlinear fit hardly reaches, and never shrinks an accepted
+    step: its damping stays where the first steps left it, and a fit from a start read off
+    the data takes many short steps."""
+
+    def step(self, first_step, y, y_eval, f_info, f_eval_info, state):
+        y_diff = (y_eval**ω - y**ω).ω
+        predicted = self.predict_reduction(y_diff, f_info)  # negative
+        achieved = f_eval_info.as_min() - f_info.as_min()
+        ok = predicted < 0
+        rho = jnp.where(ok, achieved / jnp.where(ok, predicted, -1.0), 0.0)
+        accept = (rho >= self.low_cutoff) | first_step
+        grow = 1.0 / jnp.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+        mul = jnp.where(first_step, 1.0, jnp.where(accept, grow, self.low_constant))
+        size = mul * state.step_size
+        return size, accept, optx.RESULTS.successful, type(state)(step_size=size)
+
+
+class LevenbergMarquardt(optx.AbstractGaussNewton):
+    """`optimistix.LevenbergMarquardt` (damped Gauss-Newton steps solved by QR) with
+    `NielsenTrustRegion` in place of its classical trust region."""
+
+    rtol: float
+    atol: float
+    norm: Callable = eqx.field(static=True)
+    descent: optx.DampedNewtonDescent
+    search: NielsenTrustRegion
+    verbose: Callable = eqx.field(static=True)
+
+    def __init__(self, rtol: float, atol: float):
+        self.rtol, self.atol, self.norm = rtol, atol, optx.max_norm
+        self.descent = optx.DampedNewtonDescent(linear_solver=lx.QR())
+        self.search = NielsenTrustRegion()
+        self.verbose = _quiet
+
+
+def _quiet(**_):
+    return None
+
+
+def default_solver() -> LevenbergMarquardt:
+    """``LevenbergMarquardt(rtol=1e-6, atol=1e-6)`` (this module's: optimistix's with
+    Nielsen's trust-region update, `NielsenTrustRegion`).
 
     optimistix stops when both the last step in ``y`` and the change of every residual are
     below ``atol + rtol*|value|``. ``y`` is of order one (scaled coordinates) and residuals
     are in units of the force's standard deviation, so 1e-6 means parameters settled to
-    about 1e-6 relative, far below any standard error, while tighter tolerances only make
-    the last iterations dither.
+    about 1e-6 relative, far below any standard error; the statistical rule of
+    `fitting._stopping` usually stops the fit first.
     """
-    return optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)
+    return LevenbergMarquardt(rtol=1e-6, atol=1e-6)
 
 
 class _Core(eqx.Module):
@@ -60,6 +111,7 @@ class _Core(eqx.Module):
     stderr: tuple[Array, ...]
     corr: Array
     corr_fit: Array
+    at_bound: Array  # one flag per leaf: free and pinned at a bound of its transform
 
 
 def _covariance(jac, resid, mask, n_obs):
@@ -104,14 +156,25 @@ def _remaining_step(jac, resid, mask, n_obs):
     return jnp.sqrt(z2)
 
 
-def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) -> _Core:
+def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
+                decrease=Tolerances.decrease, undetermined=Tolerances.undetermined) -> _Core:
     """The whole solve in one compiled loop of at most `max_steps` (static) steps: the
-    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`)."""
+    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`). A least-squares
+    solver stops on the same statistical rule as `fit` (`fitting._stopping.Stopping`,
+    tested after every step) or on its own test."""
     scale = _force_scale(data)
     args = (problem, data, scale)
+    if isinstance(solver, optx.AbstractLeastSquaresSolver):
+        dtype = y0.dtype
+        # (Its budget is past `max_steps`: optimistix's own limit then reports reaching it.)
+        solver = Stopping(solver, jnp.asarray(max_steps + 1, jnp.int32), jnp.zeros((), dtype),
+                          jnp.asarray(decrease, dtype), jnp.asarray(undetermined, dtype),
+                          jnp.ones_like(y0), problem.layout.coordinate_mask(),
+                          jnp.sum(data.weights > 0).astype(dtype))
     sol = optx.least_squares(
         _residuals, solver, y0, args, has_aux=True, max_steps=max_steps, throw=False
     )
+    state = sol.state[0] if isinstance(solver, Stopping) else sol.state
     y = sol.value
     # The solver's last accepted point is `y`: its residuals, Jacobian and aux (the force)
     # are reused rather than recomputed, which would trace and compile the JVP of the
@@ -120,9 +183,9 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     # the aux of the point accepted *before* `y` (optimistix returns `prev_aux` from each
     # step), so the prediction and RMSE would belong to another model than the one
     # returned (visibly so for a fit stopped at its step limit).
-    f_info = getattr(sol.state, "f_info", None)
+    f_info = getattr(state, "f_info", None)
     if isinstance(f_info, optx.FunctionInfo.ResidualJac):
-        force, overflow = sol.state.aux
+        force, overflow = state.aux
         resid = f_info.residual.ravel()
         jac = f_info.jac.as_matrix()
     else:  # a minimiser: no Jacobian in its state; evaluate everything at `y`
@@ -132,9 +195,13 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
     # A solve that never left its start is converged only if the start is an optimum (the
     # gradient test of `STUCK_COSINE`, as in `fitting._chunked`); otherwise it is stuck.
     # A residual at round-off (an exact fit) is an optimum whatever its direction.
+    # A start that satisfies the statistical rule is an optimum too (a refit of a fit).
+    mask = problem.layout.coordinate_mask()
     exact = jnp.sqrt(jnp.mean(resid**2)) <= EXACT_RESIDUAL
-    stuck = jnp.all(y == y0) & ~exact & (
-        _max_cosine(jac, resid, problem.layout.coordinate_mask()) > STUCK_COSINE)
+    left, _ = decrease_left(jac, resid, mask, jnp.sum(data.weights > 0).astype(y.dtype),
+                            undetermined)
+    stuck = jnp.all(y == y0) & ~exact & ~(left <= decrease) & (
+        _max_cosine(jac, resid, mask) > STUCK_COSINE)
     result = optx.RESULTS.where(stuck & (result == optx.RESULTS.successful),
                                 optx.RESULTS.nonlinear_divergence, result)
     return _finish_impl(problem, y, data, resid, jac, force, overflow, result,
@@ -146,6 +213,11 @@ def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int) ->
 STUCK_COSINE = 1e-4
 #: RMS of the scaled residuals (in units of the force's scale) below which a fit is exact.
 EXACT_RESIDUAL = 1e-10
+#: A fit is converged only if its R2 is at least this: the model explains at least a tenth
+#: of the measured force's variance. A friction model that explains less has not fitted
+#: the friction (a collapse to zero force, a velocity of the wrong sign); fits of friction
+#: data explain far more (0.9 and above), so the threshold only catches failures.
+MIN_R2 = 0.1
 
 
 def _max_cosine(jac, resid, mask):
@@ -198,6 +270,13 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
     result = optx.RESULTS.where(jnp.isfinite(rmse), result, optx.RESULTS.nonfinite)
     f_obs_mean = jnp.sum(jnp.where(observed, data.F, 0.0)) / n_obs
     ss_tot = jnp.sum(jnp.where(observed, (data.F - f_obs_mean) ** 2, 0.0))
+    r2 = 1.0 - jnp.sum(err**2) / ss_tot
+    # Honest status: a stopping rule that fired is not enough; the data must be explained
+    # (`MIN_R2`) and no parameter may sit pinned at a bound of its transform.
+    at_bound = problem.layout.at_bound(y)
+    result = optx.RESULTS.where(
+        (result == optx.RESULTS.successful) & ((r2 < MIN_R2) | jnp.any(at_bound)),
+        optx.RESULTS.nonlinear_divergence, result)
     f_range = jnp.max(jnp.where(observed, data.F, -jnp.inf)) - jnp.min(
         jnp.where(observed, data.F, jnp.inf)
     )
@@ -216,7 +295,7 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
         cov_fit=cov_fit,
         rmse=rmse,
         nrmse=rmse / f_range,
-        r2=1.0 - jnp.sum(err**2) / ss_tot,
+        r2=r2,
         condition_number=cond,
         model=problem.user_model(y),
         fit_model=problem.model(y),
@@ -224,6 +303,7 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
         stderr=tuple(sd[i] for i in range(sd.shape[0])),
         corr=_correlation(cov_natural),
         corr_fit=_correlation(cov_fit),
+        at_bound=at_bound,
     )
 
 
@@ -231,7 +311,8 @@ _solve = jit(_solve_impl)
 
 
 @jit
-def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
+def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False,
+                 decrease=Tolerances.decrease, undetermined=Tolerances.undetermined):
     # Over datasets only; returning arrays and the result code (never the whole optimistix
     # Solution, whose state holds jaxprs that cannot be batched: optimistix issues #38 and
     # #63). A failure in one dataset only shows in its own `result`.
@@ -241,7 +322,7 @@ def _solve_batch(problem, y0, data, solver, max_steps, vectorize=False):
     # benchmarks/throughput.py compares both). `vmap` (`vectorize=True`): one loop for
     # all, for accelerators.
     def one(d):
-        return _solve_impl(problem, y0, d, solver, max_steps)
+        return _solve_impl(problem, y0, d, solver, max_steps, decrease, undetermined)
 
     return jax.vmap(one)(data) if vectorize else jax.lax.map(one, data)
 
@@ -252,7 +333,9 @@ def _correlation(cov):
     return jnp.where(denom > 0, cov / jnp.where(denom > 0, denom, 1.0), jnp.nan)
 
 
-def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize):
+def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize,
+                            decrease=Tolerances.decrease,
+                            undetermined=Tolerances.undetermined):
     """`_solve_batch` with the B datasets split into contiguous shares, one per device.
 
     Each share is placed on its device and solved there by the same compiled function;
@@ -275,6 +358,6 @@ def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vecto
                 part)
         problem_k, y0_k, part = jax.device_put((problem, y0, part), device)
         pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps,
-                                           vectorize)))
+                                           vectorize, decrease, undetermined)))
     shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in pending]
     return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)

@@ -49,6 +49,21 @@ class AbstractTransform(eqx.Module):
         """Human-readable domain, for error messages."""
         return "finite"
 
+    def at_bound(self, y: Array) -> Array:
+        """Elementwise: does the coordinate `y` sit at a bound of the transform, where the
+        parameter no longer moves with `y` (see `PINNED`)? Never for an unbounded one."""
+        return jnp.zeros(jnp.shape(y), bool)
+
+
+#: A coordinate is pinned at a bound when the parameter's distance to that bound has fallen
+#: below this fraction of its reference magnitude (`Exp`, `Softplus`: ``(p - lower)/ref``;
+#: `Sigmoid`: the distance to either end over the interval's width): six decades, far
+#: beyond any change a fit makes to a parameter the data determine, and where the
+#: parameter's derivative with respect to ``y`` has all but vanished (a collapse, e.g.
+#: ``Fs`` = 1e-9 N from a start of 26 N, or the exponential underflowing).
+PINNED = 1e-6
+_PINNED_Y = float(np.log(PINNED))
+
 
 class Identity(AbstractTransform):
     """``p = ref * y``: any real value, scaled by ``ref`` (default ``|p0|``, or 1 if 0)."""
@@ -92,6 +107,9 @@ class Exp(_LowerBounded):
     def forward(self, y, ref):
         return self.lower + ref * jnp.exp(y)
 
+    def at_bound(self, y):
+        return y < _PINNED_Y
+
     def inverse(self, value, ref):
         return jnp.log((value - self.lower) / ref)
 
@@ -109,6 +127,9 @@ class Softplus(_LowerBounded):
         u = (value - self.lower) / ref
         # log(expm1(u)) written so that it neither overflows nor cancels.
         return u + jnp.log(-jnp.expm1(-u))
+
+    def at_bound(self, y):
+        return y < _PINNED_Y  # softplus(y) ~ exp(y) there
 
 
 class Sigmoid(AbstractTransform):
@@ -128,6 +149,9 @@ class Sigmoid(AbstractTransform):
     def inverse(self, value, ref):
         u = (value - self.low) / (self.high - self.low)
         return jnp.log(u) - jnp.log1p(-u)
+
+    def at_bound(self, y):
+        return jnp.abs(y) > -_PINNED_Y  # sigmoid(y) or 1 - sigmoid(y) below PINNED
 
     def in_domain(self, value):
         return np.isfinite(value) & (value > self.low) & (value < self.high)

@@ -88,6 +88,8 @@ def test_fit_tustin_json_and_units(tmp_path):
     true = {"Fs": truth.stribeck.Fs, "Fc": truth.stribeck.Fc, "Vs": truth.stribeck.Vs,
             "delta": truth.stribeck.delta, "sigma2": truth.sigma2}
     for name, value in true.items():
+        if res["stderr"][name] is None:  # undetermined by these data: held, error unknown
+            continue
         err = abs(res["params"][name] - float(value))
         assert err < 4 * res["stderr"][name], (name, err, res["stderr"][name])
     assert res["stderr"]["Fs"] < 1e-3 * float(truth.stribeck.Fs)  # sharp: reached at v -> 0

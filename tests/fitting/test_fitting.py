@@ -249,17 +249,19 @@ def test_batch_matches_one_by_one_and_isolates_a_bad_dataset():
     good = [i for i in range(33) if i != 7]
     assert all(status[i] == "successful" for i in good)
     for i in good:
-        # The batch's one compiled loop stops on the solver's own test only; the single fit
-        # is run with the same rule (setol = 0: no stop at a tenth of a standard error).
-        one = fitting.fit(start, t, x, forces[i], free=free, setol=0.0)
+        # The batch's loop and the single fit stop on the same statistical rule.
+        one = fitting.fit(start, t, x, forces[i], free=free)
         assert one.status == "successful"
         item = batch[i]
         for name in one.names:
-            # Same optimum: to a thousandth of a standard error (the tolerances stop the
-            # iterations at ~1e-6 relative, and batched and single linear algebra round
-            # differently, so the last steps may differ).
+            # Same optimum, to the stopping rule's tolerance: each fit stops within
+            # sqrt(2 * decrease) = 0.14 standard errors of it (fitting._stopping), along
+            # different paths (the batch's loop is not column-scaled nor chunked), so the
+            # two may differ by twice that.
+            bound = 2 * np.sqrt(2 * fitting.Tolerances().decrease)
             diff = abs(float(item.params[name]) - float(one.params[name]))
-            assert diff <= 1e-3 * float(one.stderr[name]) + 1e-12 * abs(float(one.params[name]))
+            assert diff <= bound * float(one.stderr[name]) + 1e-12 * abs(
+                float(one.params[name]))
         np.testing.assert_allclose(item.rmse, one.rmse, rtol=1e-6)
 
 

@@ -67,8 +67,9 @@ def test_fit_speed_runs_and_writes_json(tmp_path):
         assert row[side]["warm_s"] > 0 and row[side]["steps"] > 0
         assert np.isfinite(row[side]["rmse"])
     assert row["scipy"]["first_s"] >= row["scipy"]["warm_s"]  # + the Numba compilation
-    assert {g["goal"] for g in data["goals"]} == {"warm speed-up", "first-call speed-up",
-                                                  "RMSE vs scipy"}
+    assert {g["goal"] for g in data["goals"]} == {"steps", "warm speed-up",
+                                                  "first-call speed-up", "RMSE vs scipy"}
+    assert data["cells"] == data["rows"] and not data["partial"]
 
 
 @pytest.mark.slow

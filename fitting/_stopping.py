@@ -1,0 +1,173 @@
+"""When a fit is done: the stopping policy shared by `fit`, `fit_datasets` and `fit_batch`.
+
+**The statistical rule** (`Tolerances.decrease`). At the solver's current point, with
+residuals ``r`` and Jacobian ``J`` (over the free coordinates ``y``), the Gauss-Newton
+model predicts that a full step could still lower the cost ``sum(r^2)/2`` by
+
+    pred = g^T (J^T J)^-1 g / 2,    g = J^T r,
+
+the most any step can gain where the model is linear. With the noise variance estimated as
+``s^2 = sum(r^2)/(n - p)`` (n samples of weight > 0, p free coordinates), ``2 pred / s^2``
+is the squared length of the step left measured in standard errors (its Mahalanobis length
+under ``cov(y) = s^2 (J^T J)^-1``): the bias that stopping leaves in any linear combination
+of the parameters is at most ``sqrt(2 pred/s^2)`` of that combination's standard error. The
+fit stops as converged when ``pred <= decrease * s^2``. With the default 0.01 that bias is
+at most 0.14 standard errors, which raises the root-mean-square error of any estimate (bias
+and noise together, ``sqrt(1 + 0.02)``) by at most 1 %: further steps cannot change
+anything the data can tell. The rule is tested after every step, inside the compiled loop,
+so a fit stops at the first step that satisfies it; it is invariant to the parameters'
+units and to the solver's column scaling (it is the residual's projection onto the
+Jacobian's column space).
+
+**Directions the data do not determine** (`Tolerances.undetermined`). An eigen-direction of
+``J^T J`` (in the solver's coordinates ``y``: log scale for positive parameters, so one unit
+is a factor e) whose standard error ``sqrt(s^2 / eigenvalue)`` exceeds `undetermined` is
+one the data fix to no better than a factor e. Its share of ``pred`` is left out of the
+rule, so the fit does not crawl along it: those steps would lower the cost by amounts that
+depend on values the data cannot fix (a Stribeck curve fitted to presliding data, say).
+`fitting._chunked` then holds such parameters at their start and says so
+(`FitResult.undetermined`).
+
+MINPACK's lmder stops on a relative predicted reduction (``prered <= ftol``, a number
+without a statistical meaning, hence its tiny default); scipy's trf on the relative change
+of the cost or of ``x``. Both creep along a valley for many steps, each lowering the cost
+by a small fraction of the noise variance. The rules of `Tolerances` other than `decrease`
+keep that role for data without noise (an exact fit, where ``s^2`` is round-off).
+"""
+
+import dataclasses
+from typing import Any
+
+import equinox as eqx
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array
+
+
+@dataclasses.dataclass(frozen=True)
+class Tolerances:
+    """When a fit is done; pass as ``fit(..., tol=Tolerances(...))``.
+
+    - `decrease`: the statistical rule (module docstring): stop when the Gauss-Newton
+      decrease of the cost left is at most this many noise variances (0.01: a bias of at
+      most 0.14 standard errors), or the steps stall (`STALL_STEPS`); 0 turns both off.
+    - `undetermined`: standard error, in the solver's coordinates (a factor e for positive
+      parameters), above which a direction or a parameter is undetermined: left out of the
+      rule, and the parameter held at its start (`fit`, `fit_datasets`).
+    - `ftol`: relative decrease of the cost over the last chunk of steps (32 or more);
+    - `xtol`: change of the prediction by the last chunk's steps, linearised (``|J dy|``),
+      relative to the norm of the residual;
+    - `gtol`: largest cosine between a Jacobian column and the residual (MINPACK's test).
+
+    The solver's own test (optimistix: the last step and every residual's change within
+    ``atol + rtol*|value|``) applies as well. `fit_batch` applies `decrease` and
+    `undetermined` (inside its one compiled loop) and the solver's test, not the chunk
+    rules `ftol`, `xtol`, `gtol`. Values are traced: changing them does not recompile.
+    """
+
+    decrease: float = 0.01
+    undetermined: float = 1.0
+    ftol: float = 1e-6
+    xtol: float = 1e-6
+    gtol: float = 1e-8
+
+
+def decrease_left(jac, resid, mask, n_obs, undetermined):
+    """``(pred / s^2, count)``: the Gauss-Newton decrease of the cost left over the
+    determined directions in units of the noise variance, and how many free directions
+    are undetermined (module docstring). `jac` is ``d resid / d y`` (any column scaling of
+    the determined part gives the same value; the undetermined test reads ``y``'s units)."""
+    jf = jac * mask
+    n_free = jnp.sum(mask)
+    s2 = jnp.sum(resid**2) / jnp.maximum(n_obs - n_free, 1.0)
+    a = jf.T @ jf + jnp.diag(1.0 - mask)
+    eig, vec = jnp.linalg.eigh(a)
+    proj = vec.T @ (jf.T @ resid)
+    determined = (eig > 0) & (eig * undetermined**2 >= s2)
+    pred = 0.5 * jnp.sum(jnp.where(determined, proj**2 / jnp.where(determined, eig, 1.0),
+                                   0.0))
+    ratio = jnp.where(s2 > 0, pred / jnp.where(s2 > 0, s2, 1.0), 0.0)
+    # (Held coordinates have eigenvalue 1 and are counted as determined unless s^2 > 1.)
+    count = jnp.sum((~determined) & (jnp.abs(vec.T @ mask) > 0.5))
+    return ratio, count.astype(jnp.int32)
+
+
+class Stopping(optx.AbstractLeastSquaresSolver):
+    """`solver` with the statistical rule (`decrease_left`) tested after every step, a
+    budget of `budget` steps, and a trust region (for a solver with one) starting at
+    `step_size` when it is > 0 (the previous chunk's, so that a chunk goes on where the
+    last one stopped). `inv_d` maps the solver's coordinates to ``y`` (``y = y_c + inv_d
+    * z``); `mask` and `n_obs` are the free coordinates and the samples of weight > 0. All
+    are arrays: new values do not recompile."""
+
+    solver: Any
+    budget: Array
+    step_size: Array
+    decrease: Array
+    undetermined: Array
+    inv_d: Array
+    mask: Array
+    n_obs: Array
+
+    @property
+    def rtol(self):
+        return self.solver.rtol
+
+    @property
+    def atol(self):
+        return self.solver.atol
+
+    @property
+    def norm(self):
+        return self.solver.norm
+
+    def init(self, fn, y, args, options, f_struct, aux_struct, tags):
+        inner = self.solver.init(fn, y, args, options, f_struct, aux_struct, tags)
+        if hasattr(inner, "search_state") and hasattr(inner.search_state, "step_size"):
+            size = inner.search_state.step_size
+            inner = eqx.tree_at(lambda s: s.search_state.step_size, inner,
+                                jnp.where(self.step_size > 0, self.step_size, size))
+        # The cost after each of the last `STALL_STEPS` steps (a ring; inf until filled).
+        costs = jnp.full((STALL_STEPS,), jnp.inf, y.dtype)
+        return inner, jnp.zeros((), jnp.int32), costs
+
+    def step(self, fn, y, args, options, state, tags):
+        inner, count, costs = state
+        y, inner, aux = self.solver.step(fn, y, args, options, inner, tags)
+        f_info = getattr(inner, "f_info", None)
+        if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+            costs = costs.at[count % STALL_STEPS].set(0.5 * jnp.sum(f_info.residual**2))
+        return y, (inner, count + 1, costs), aux
+
+    def terminate(self, fn, y, args, options, state, tags):
+        inner, count, costs = state
+        done, result = self.solver.terminate(fn, y, args, options, inner, tags)
+        settled = jnp.asarray(False)
+        f_info = getattr(inner, "f_info", None)
+        if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+            # After the first step the state holds the residual and Jacobian at the last
+            # accepted point (before it, zeros: `count` guards that).
+            jac = f_info.jac.as_matrix() / self.inv_d
+            resid = f_info.residual.ravel()
+            ratio, _ = decrease_left(jac, resid, self.mask, self.n_obs, self.undetermined)
+            s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+            # The ring's oldest entry (the next to be overwritten) is the cost
+            # STALL_STEPS - 1 steps ago; the newest is now.
+            achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
+            stalled = ((self.decrease > 0) & (ratio <= STALL_PREDICTED)
+                       & (achieved <= self.decrease * s2))
+            settled = (count >= 1) & ((ratio <= self.decrease) | stalled)
+        return done | settled | (count >= self.budget), result
+
+    def postprocess(self, fn, y, aux, args, options, state, tags, result):
+        return self.solver.postprocess(fn, y, aux, args, options, state[0], tags, result)
+
+
+#: The stall rule (predicted and achieved): the fit also stops when the linear model
+#: predicts at most `STALL_PREDICTED` noise variances left (a step of at most 1.4
+#: standard errors) and the last `STALL_STEPS` steps together achieved at most `decrease`
+#: noise variances. In a curved valley the linear model overstates what a step can gain;
+#: eight steps that together gain nothing measurable show that the rest is out of reach
+#: of the solver's steps and, being under one noise variance, of the data's interest.
+STALL_STEPS = 8
+STALL_PREDICTED = 1.0
