@@ -186,18 +186,38 @@ def _goal_rows(goals: list[dict]) -> list[tuple]:
     return out
 
 
+def _fit_cell(c: dict) -> list:
+    j, sp = c["jaxfric"], c["scipy"]
+    return [c["model"], c["motion"], f"{c['n']:.0e}".replace("e+0", "e"),
+            j.get("steps"), sp.get("steps"), fmt(c.get("ratio_warm")) + "x",
+            fmt(c.get("ratio_first")) + "x", f"{100 * c['rmse_rel']:+.2g} %"]
+
+
 def section_fit_speed(d: dict) -> list[str]:
-    rows = [[f"{r['n']:.0e}".replace("e+0", "e"), r["jaxfric"].get("first_s"),
-             r["jaxfric"].get("warm_s"), r["jaxfric"].get("steps"), r["scipy"].get("first_s"),
-             r["scipy"].get("warm_s"), r["scipy"].get("steps")]
-            for r in d.get("rows", []) if "jaxfric" in r and "scipy" in r]
+    goals = d.get("goals", [])
+    if "cells" in d:  # one row per model, motion and size; the goals' verdicts below it
+        missed = [g for g in goals if not g.get("met", True)]
+        summary = d.get("summary", {})
+        verdict = (f"{summary.get('met', len(goals) - len(missed))} of "
+                   f"{summary.get('goals', len(goals))} goals met. Targets: <= 40 steps "
+                   "everywhere, RMSE within 1 % of scipy's everywhere; for the two-state "
+                   "model at 1e5 samples warm >= 5x and first call >= 2.5x scipy's time.")
+        body = [table(["model", "motion", "samples", "steps", "scipy steps", "warm x scipy",
+                       "first x scipy", "RMSE vs scipy"], [_fit_cell(c) for c in d["cells"]]),
+                verdict]
+        if missed:
+            body.append(table(["missed", "model", "motion", "samples", "measured", "target"],
+                              [[g["goal"], g.get("model"), g.get("motion"),
+                                f"{g['n']:.0e}".replace("e+0", "e"), fmt(g.get("measured")),
+                                fmt(g.get("target"))] for g in missed]))
+    else:
+        body = [goals_table(_goal_rows(goals))]
     return [
-        "`fitting.fit` of the two-state model against `scipy.optimize.least_squares` (trf, "
-        "finite differences) around a Numba loop of the same model, on the same data and "
-        "start, side by side: the first call (compilation included) and a warm call.",
-        goals_table(_goal_rows(d.get("goals", []))),
-        table(["samples", "jaxfric first [s]", "warm [s]", "steps", "scipy first [s]",
-               "warm [s]", "steps"], rows) if rows else "",
+        "`fitting.fit` against `scipy.optimize.least_squares` (trf, finite differences) "
+        "around a simulation of the same model (a Numba loop for the two-state model, "
+        "jaxfric's jitted simulation for the others), on the same data and start, side by "
+        "side: steps, the warm and first-call (compilation included) speed-up, and the RMSE.",
+        *body,
         command(d.get("command", "python benchmarks/fit_speed.py"), SOURCES["fit_speed"]),
         machine_line(d)]
 
