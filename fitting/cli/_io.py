@@ -161,6 +161,13 @@ def result_json(kind: str, res, m) -> dict:
         "r2": float(res.r2),
         "converged": bool(res.converged),
         "status": res.status,
+        "stopped": getattr(res, "stopped", ""),  # which stopping rule ended the fit, in words
+        # Parameters the data do not determine (held at their start, stderr null) and those
+        # pinned at a bound of their transform.
+        "undetermined": list(getattr(res, "undetermined", ())),
+        "at_bound": [n for n, b in zip(getattr(res, "leaf_names", ()),
+                                       np.asarray(res.at_bound).ravel()) if b]
+        if getattr(res, "at_bound", None) is not None and np.ndim(res.rmse) == 0 else [],
         "iterations": int(res.num_steps),
         "overflow": int(res.overflow),  # memory entries dropped in the final simulation
         "fitted_model": saved_model(res.fit_model),
