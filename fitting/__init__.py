@@ -36,7 +36,10 @@ properties pytree beside the model, never inside it.
 
 - `initial_model(kind, t, x, F, v=None, *, n_elements=5)`: a starting model of kind
   ``"two-state"``, ``"gms"``, ``"lugre"`` or ``"tustin"`` with scales estimated from the data
-  (force levels, presliding extent after reversals); what ``jaxfric fit`` starts from.
+  read off the data: the steady-state curve from the steady sliding samples
+  (`fitting._steady`), the presliding range from the swing after reversals, an uncertain
+  presliding extent and lag settled by simulating a few candidates; what ``jaxfric fit``
+  starts from.
 
 - `Tolerances(decrease=0.01, undetermined=1.0, ftol=1e-6, xtol=1e-6, gtol=1e-8)`: when
   a fit is done, passed as ``fit(..., tol=Tolerances(...))``.
@@ -89,8 +92,8 @@ Example::
     mc.force_q05, mc.force_q95                      # prediction band from the fit's covariance
 
 **Compilation.** Each distinct (model structure, data shape, solver, `max_steps`) compiles
-once per process: 5-7 s for the first two-state fit or batch on a 2-core CPU (see
-BENCHMARKS.md and `benchmarks/fit_compile.py`), seconds for Tustin/LuGre/GMS; further
+once per process: seconds for the first two-state fit or batch on a 2-core CPU (see
+docs/validation.md and `benchmarks/profiling/fit_compile.py`), less for Tustin/LuGre/GMS; further
 calls with the same shapes run in well under a second to a few seconds. Changing the free
 set, the starting values or the weights does not recompile (see `fitting._problem`); data
 whose number of reversals falls in another power-of-two bucket (up to 64, 128, 256, ...)
