@@ -271,7 +271,8 @@ def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
     if held:
         out += f"; undetermined by the data, held at their start: {', '.join(held)}"
     if loose:
-        out += f"; undetermined by the data (no steps left to hold them): {', '.join(loose)}"
+        out += (f"; large standard errors, not held (no steps left, or moving them back to "
+                f"their start costs fit): {', '.join(loose)}")
     return out
 
 
@@ -288,6 +289,19 @@ def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset
     core = _finish(start, y_full, data, resid, jac, force, overflow, result,
                    jnp.asarray(steps))
     return core, start
+
+
+def _costless(problem: _Problem, y0, y, leaves: list[int], data: Dataset, cost: float,
+              n_obs: int, tol: Tolerances) -> bool:
+    """Whether moving `leaves` back to their start (where `_hold` puts them) costs less than
+    `tol.decrease` noise variances: only then are they undetermined in fact. A large
+    standard error at a point the fit has not left yet (a bent start) is no proof, and
+    holding there would keep the fit from the data."""
+    coord = np.isin(problem.layout.coordinate_leaf(), leaves)
+    back = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
+    resid = np.asarray(_evaluate(problem, back, data)[0])
+    s2 = 2.0 * cost / max(n_obs - np.size(y), 1)
+    return 0.5 * float(np.sum(resid**2)) - cost <= tol.decrease * s2
 
 
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
@@ -337,9 +351,10 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             more = undetermined_leaves(out.jac, out.resid, problem.layout, n_obs,
                                        tol.undetermined, set(pinned.tolist())
                                        ) if 2 * cost / n_obs <= 1 - MIN_R2 else []
-            if steps >= max_steps:
+            if steps >= max_steps or not _costless(problem, y0, y, more, data, cost, n_obs,
+                                                   tol):
                 unheld = more
-            if not more or steps >= max_steps:
+            if not more or unheld:
                 break
             # Held at the start; the others go on from here (the cost rules start again).
             held += more

@@ -1,8 +1,7 @@
 """Least-squares fits of any jaxfric model to measured ``(t, x, F)``.
 
-**Solver.** Levenberg-Marquardt by default (`fitting._solve.LevenbergMarquardt`:
-optimistix's, with a trust region that grows whenever a step achieves more than half its
-predicted decrease), because:
+**Solver.** optimistix's Levenberg-Marquardt by default (`fitting._solve.default_solver`),
+because:
 
 - the problem is a nonlinear least-squares problem with many more samples than parameters
   (thousands against 5-25), so a Gauss-Newton method that uses ``J^T J`` as its curvature

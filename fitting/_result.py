@@ -154,8 +154,8 @@ class FitResult(eqx.Module):
                 f"R2: {float(self.r2):.6f}")
         lines = [head] + ([f"stopped: {self.stopped}"] if self.stopped else [])
         if self.undetermined:
-            lines.append(f"undetermined by the data (held at their start, no standard "
-                         f"error): {', '.join(self.undetermined)}")
+            lines.append(f"undetermined by the data (no standard error; see 'stopped' for "
+                         f"whether held): {', '.join(self.undetermined)}")
         for name in self.names:
             v, s = float(self.params[name]), float(self.stderr[name])
             rel = f"{100 * s / abs(v):9.3g} %" if v != 0 else ""

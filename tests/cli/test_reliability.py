@@ -334,7 +334,7 @@ NOISE = 0.05  # N
 def _strokes(seed=0):
     """Strokes of 5 mm at 5 mm/s with rests of 0.2 s, sampled at 1 ms, through the
     paper's two-state model plus 0.05 N of noise: ``(t, x, F)``."""
-    from .helpers import waypoint_path
+    from ..helpers import waypoint_path
 
     t, x = waypoint_path(np.array([0.0, 5e-3, 0.0, 5e-3, 0.0]), 5e-3, 1e-3, dwell=0.2)
     F = np.asarray(jaxfric.simulate(paper.two_state(), t, x))
@@ -410,7 +410,7 @@ def test_no_spikes_in_ordinary_data():
     from fitting.cli.demo import example_measurement
     from jaxfric import synthetic
 
-    from .helpers import nested_path, strokes_path
+    from ..helpers import nested_path, strokes_path
 
     records = [example_measurement()[:3]]
     for truth, hidden, dt in (("gms_power", "cogging", 2e-2), ("lugre", "cogging", 2e-2),

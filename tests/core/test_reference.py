@@ -120,6 +120,6 @@ def test_gms_from_shape_matches_reference_elements():
 def test_the_reference_passes_its_own_check_against_the_specification(capsys):
     """`tests/reference_check.py`: the reference's shapes, loops and steady states against
     properties the specification states, with nothing from jaxfric."""
-    from .reference_check import _self_check
+    from ..reference_check import _self_check
 
     assert _self_check(), capsys.readouterr().out

@@ -163,7 +163,7 @@ def test_c_export_takes_the_load_and_matches_simulate(tmp_path):
 
 
 def test_cli_simulate_reads_the_load_column_and_names_a_missing_one(tmp_path):
-    from .test_cli import run
+    from ..cli.test_cli import run
 
     t, x, L = _motion(n=400)
     model = paper.tustin() + fx.LoadFriction(k_load=0.03)
@@ -189,7 +189,7 @@ def test_cli_simulate_reads_the_load_column_and_names_a_missing_one(tmp_path):
 def test_each_joint_of_a_robot_log_reads_its_own_load_column(tmp_path):
     """``load1..loadN`` beside ``q1..qN``/``tau1..tauN``: each joint gets its own load (in
     the file's unit), and the command line simulates each joint with it."""
-    from .test_cli import run
+    from ..cli.test_cli import run
 
     t, x, L1 = _motion(seed=1, n=400)
     L2 = 3.0 * L1[::-1]

@@ -334,7 +334,7 @@ def test_cli_export_bad_input_one_line_exit_2(tmp_path, content, expected):
 def test_c_compensator_example_removes_most_of_the_tracking_error(tmp_path):
     """examples/c_compensator.py: the exported step as friction feedforward in a C control
     loop (the plant's friction is the same model, so the feedforward is nearly exact)."""
-    from .helpers import load_example
+    from ..helpers import load_example
 
     out = load_example("c_compensator").build_and_run(paper.two_state(), tmp_path, 1e-4, CC)
     errors = [float(line.rsplit(":", 1)[1].split()[0]) for line in out.splitlines()
