@@ -42,12 +42,35 @@ from typing import Any, ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike
 
 from ._fields import param
 from ._models._base import AbstractFrictionModel, SimResult
 from ._numerics import linear_recurrence, safe_div
 from .motion import Motion
+
+
+_INF = math.inf
+
+#: The shortest settling time of a drift a diagnosis searches is the record's duration
+#: over this (`Drift.grid`).
+DRIFT_SPAN_RATIO = 10
+
+#: The most ripples per revolution a diagnosis searches (`Ripple.grid`).
+RIPPLE_MAX = 720
+
+
+def _steps(x) -> np.ndarray:
+    dx = np.abs(np.diff(np.asarray(x, float)))
+    return dx[dx > 0]
+
+
+def _shortest_period(x) -> float:
+    """The shortest position period (m) a record resolves: 8 of its median position steps,
+    and at least 1/2000 of the travel."""
+    dx = _steps(x)
+    return max(8 * (float(np.median(dx)) if dx.size else 1e-6), float(np.ptp(x)) / 2000)
 
 
 class Signals(eqx.Module):
@@ -90,6 +113,14 @@ class AbstractEffect(eqx.Module):
         """One line with the effect's parameter values and units."""
         return self.name
 
+    @classmethod
+    def grid(cls, t, x, v, F) -> list["AbstractEffect"]:
+        """Starting instances for a diagnosis's search, from the record (NumPy arrays ``t``
+        s, ``x`` m, ``v`` m/s, ``F`` N): one per point of a grid over the effect's nonlinear
+        parameters; the search sets the linear ones (``param(..., linear=True)``). Default:
+        one instance, for an effect whose parameters are all linear."""
+        return [cls()]
+
     def add_to(self, model: AbstractFrictionModel) -> "WithEffects":
         """``model + self``: `model` with this effect appended."""
         return add_effects(model, self)
@@ -99,7 +130,7 @@ class Viscous(AbstractEffect):
     """``c_visc * v``: extra linear damping, N s/m."""
 
     name: ClassVar[str] = "viscous"
-    c_visc: Array = param("N s/m", default=0.0)
+    c_visc: Array = param("N s/m", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.c_visc * s.v
@@ -112,7 +143,7 @@ class QuadraticDrag(AbstractEffect):
     """``c_drag * v * |v|``, N s^2/m^2."""
 
     name: ClassVar[str] = "quadratic_drag"
-    c_drag: Array = param("N s^2/m^2", default=0.0)
+    c_drag: Array = param("N s^2/m^2", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.c_drag * s.v * jnp.abs(s.v)
@@ -125,8 +156,14 @@ class StribeckHump(AbstractEffect):
     """``dF_str * exp(-(v/v_str)^2) * sign(v)``: more (or less) friction at low speed."""
 
     name: ClassVar[str] = "stribeck"
-    dF_str: Array = param("N", default=0.0)
+    dF_str: Array = param("N", default=0.0, linear=True, physical=(0.0, _INF))
     v_str: Array = param("m/s", constraint="positive", default=1e-3)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # the speeds the record covers
+        speed = np.abs(v[v != 0]) if np.any(v != 0) else np.ones(1)
+        vs = np.geomspace(np.quantile(speed, 0.02), np.quantile(speed, 0.98), 24)
+        return [cls(v_str=s) for s in vs]
 
     def term(self, s):
         return self.dF_str * jnp.exp(-(safe_div(s.v, self.v_str) ** 2)) * jnp.sign(s.v)
@@ -141,7 +178,7 @@ class Inertia(AbstractEffect):
     a drive force, or a mis-calibrated one."""
 
     name: ClassVar[str] = "inertia"
-    mass: Array = param("kg", default=0.0)
+    mass: Array = param("kg", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.mass * s.a
@@ -154,7 +191,7 @@ class Offset(AbstractEffect):
     """A constant force (N): gravity on an inclined axis, a sensor zero."""
 
     name: ClassVar[str] = "offset"
-    offset: Array = param("N", default=0.0)
+    offset: Array = param("N", default=0.0, linear=True)
 
     def term(self, s):
         return jnp.broadcast_to(self.offset, s.t.shape)
@@ -168,7 +205,7 @@ class Asymmetry(AbstractEffect):
     lower by ``1 - asym`` in the negative one (dimensionless)."""
 
     name: ClassVar[str] = "asymmetry"
-    asym: Array = param("-", default=0.0)
+    asym: Array = param("-", default=0.0, linear=True, physical=(-1.0, 1.0))
 
     def term(self, s):
         return self.asym * jnp.abs(s.base)
@@ -181,9 +218,14 @@ class Cogging(AbstractEffect):
     """``cog_sin * sin(2 pi x / period) + cog_cos * cos(2 pi x / period)`` (N; period m)."""
 
     name: ClassVar[str] = "cogging"
-    cog_sin: Array = param("N", default=0.0)
-    cog_cos: Array = param("N", default=0.0)
+    cog_sin: Array = param("N", default=0.0, linear=True)
+    cog_cos: Array = param("N", default=0.0, linear=True)
     period: Array = param("m", constraint="positive", default=1e-3)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # from the shortest resolved period to half the travel
+        periods = np.geomspace(_shortest_period(x), np.ptp(x) / 2, 160)
+        return [cls(period=p) for p in periods]
 
     def term(self, s):
         phase = 2 * jnp.pi * safe_div(s.x, self.period)
@@ -206,14 +248,18 @@ class PositionDependence(AbstractEffect):
     travel (`x_mid`, `x_half` in m, fixed at construction: `for_travel`)."""
 
     name: ClassVar[str] = "position_dependence"
-    pos_1: Array = param("-", default=0.0)
-    pos_2: Array = param("-", default=0.0)
+    pos_1: Array = param("-", default=0.0, linear=True)
+    pos_2: Array = param("-", default=0.0, linear=True)
     x_mid: float = eqx.field(static=True, default=0.0)
     x_half: float = eqx.field(static=True, default=1.0)
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionDependence":
         return cls(**_travel(x), **params)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        return [cls.for_travel(x)]
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
@@ -232,14 +278,18 @@ class PositionLoad(AbstractEffect):
     travel, so that it does not stand in for an `Offset`."""
 
     name: ClassVar[str] = "position_load"
-    load_1: Array = param("N", default=0.0)
-    load_2: Array = param("N", default=0.0)
+    load_1: Array = param("N", default=0.0, linear=True)
+    load_2: Array = param("N", default=0.0, linear=True)
     x_mid: float = eqx.field(static=True, default=0.0)
     x_half: float = eqx.field(static=True, default=1.0)
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionLoad":
         return cls(**_travel(x), **params)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        return [cls.for_travel(x)]
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
@@ -258,9 +308,18 @@ class Ripple(AbstractEffect):
     the length of `rip_sin`, three by default) shape the ripple that one sine cannot."""
 
     name: ClassVar[str] = "ripple"
-    rip_sin: Array = param("N", default=(0.0, 0.0, 0.0))
-    rip_cos: Array = param("N", default=(0.0, 0.0, 0.0))
+    rip_sin: Array = param("N", default=(0.0, 0.0, 0.0), linear=True)
+    rip_cos: Array = param("N", default=(0.0, 0.0, 0.0), linear=True)
     period: Array = param("m", constraint="positive", default=2 * 3.141592653589793)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Every integer count ``k`` of ripples per revolution (period ``2 pi / k``) from
+        the first whose period fits in the travel to the shortest resolved period, at most
+        `RIPPLE_MAX`: a count one off drifts by a whole period over the travel."""
+        k_min = max(1, int(np.ceil(2 * np.pi / max(float(np.ptp(x)), 1e-12))))
+        k_max = min(RIPPLE_MAX, int(np.floor(2 * np.pi / _shortest_period(x))))
+        return [cls(period=2 * np.pi / k) for k in range(k_min, max(k_min, k_max) + 1)]
 
     def __check_init__(self):
         if jnp.shape(self.rip_sin) != jnp.shape(self.rip_cos) or jnp.ndim(self.rip_sin) < 1:
@@ -285,8 +344,8 @@ class AngleLoad(AbstractEffect):
     on a rotary axis (`position_load` is the polynomial form for a linear travel)."""
 
     name: ClassVar[str] = "angle_load"
-    g_sin: Array = param("N", default=0.0)
-    g_cos: Array = param("N", default=0.0)
+    g_sin: Array = param("N", default=0.0, linear=True)
+    g_cos: Array = param("N", default=0.0, linear=True)
 
     def term(self, s):
         return self.g_sin * jnp.sin(s.x) + self.g_cos * jnp.cos(s.x)
@@ -320,7 +379,7 @@ class LoadFriction(AbstractEffect):
     `ValueError` (`jaxfric.simulate(..., load=...)`)."""
 
     name: ClassVar[str] = "load_friction"
-    k_load: Array = param("-", default=0.0)
+    k_load: Array = param("-", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         if s.load is None:
@@ -344,8 +403,15 @@ class Drift(AbstractEffect):
     accelerating change."""
 
     name: ClassVar[str] = "drift"
-    drift_rate: Array = param("1/s", default=0.0)
+    drift_rate: Array = param("1/s", default=0.0, linear=True)
     drift_decay: Array = param("1/s", default=0.0)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Linear (wear), or settling (a warm-up) over a tenth to twice the record."""
+        span = max(float(t[-1] - t[0]), 1e-9)
+        taus = np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)
+        return [cls(drift_decay=d) for d in (0.0, *(1.0 / taus))]
 
     def term(self, s):
         elapsed = s.t - s.t0
@@ -384,6 +450,15 @@ class Presliding(AbstractEffect):
     F_pre: Array = param("N", constraint="positive", default=1.0)
     k_pre: Array = param("N/m", constraint="positive", default=1e6)
 
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Reversal travels ``2 F_pre / k_pre`` from 1e-4 of half the travel to all of it, at
+        the median force level."""
+        level = float(np.median(np.abs(F))) or 1.0
+        dmax = float(np.ptp(x)) / 2
+        return [cls(F_pre=level, k_pre=2 * level / d)
+                for d in np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)]
+
     def init_state(self, x0):
         return jnp.zeros_like(x0)
 
@@ -415,8 +490,15 @@ class FrictionLag(AbstractEffect):
     viscous term too would act like a (negative) mass and trade off against `inertia`."""
 
     name: ClassVar[str] = "friction_lag"
-    lag_gain: Array = param("-", constraint=("interval", 0.0, 1.0), default=0.0)
+    lag_gain: Array = param("-", constraint=("interval", 0.0, 1.0), default=0.0,
+                          linear=True, physical=(0.0, 1.0))
     tau: Array = param("s", constraint="positive", default=0.1)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # from one sampling interval to a tenth of the record
+        span = float(t[-1] - t[0])
+        taus = np.geomspace(max(float(np.median(np.diff(t))), 1e-6), span / 10, 24)
+        return [cls(tau=tau) for tau in taus]
 
     def init_state(self, x0):
         return (jnp.zeros_like(x0), jnp.zeros((), bool))
