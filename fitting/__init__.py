@@ -99,6 +99,8 @@ from ._derivatives import (
     estimate_velocity as estimate_velocity,
 )
 from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
+from ._diagnose_cv import diagnose_cv as diagnose_cv
+from ._rules import DiagnosisRules as DiagnosisRules
 from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult
 from ._params import (
