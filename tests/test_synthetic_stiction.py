@@ -22,7 +22,7 @@ def test_stiction_breaks_away_above_the_sliding_curve_and_drops():
 
 
 def test_measurement_takes_a_motion_family_and_a_jittered_clock():
-    t, x, F = synthetic.measurement("stiction", (), dt=2e-3, motion="jerk_limited",
+    t, _, _ = synthetic.measurement("stiction", (), dt=2e-3, motion="jerk_limited",
                                     duration=4.0, jitter=0.1)
     assert t.size == 2000 and np.all(np.diff(t) > 0)
     steps = np.diff(t)
