@@ -158,11 +158,11 @@ def _signals(data: Data, base_model) -> fx.Signals:
                       load=None if data.load is None else jnp.asarray(data.load))
 
 
-def start_effect(name: str, data: Data, base_model, resid: np.ndarray):
+def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None):
     """Effect `name` at the grid point whose term best regresses `resid` (N, measured minus
     model), its linear parameters at that regression's values (clipped to their physical
-    range)."""
-    s = _signals(data, base_model)
+    range). `s`: the signals of `base_model` on `data`, if already computed."""
+    s = _signals(data, base_model) if s is None else s
     best, best_gain = None, -np.inf
     for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
         X = _columns(e, s)
@@ -281,7 +281,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     data = fitter.data
     names = [n for n in candidates if switchable(n)]
     plain = _params.to_fit_representation(start)
-    slots = [_off(start_effect(n, data, plain, np.zeros_like(data.F))) for n in names]
+    slots = [_off(fx.EFFECTS[n].grid(data.t, data.x, data.v, data.F)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
     fitted, pred = fitter.fit(superset, frozenset())
@@ -291,11 +291,12 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     rounds, switched = [], False
     while len(rounds) < rules.max_added:
         resid = data.F - current.pred
+        signals = _signals(data, current.fitted.without_effects())
         options = []
         for i, n in enumerate(names):
             if i in current.on:
                 continue
-            eff = start_effect(n, data, current.fitted.without_effects(), resid)
+            eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             model = eqx.tree_at(lambda m: m.base, model, plain)  # the starting base
             options.append(Option((n,), model, current.on | {i}))

@@ -88,11 +88,11 @@ def dataclasses_frozen():
     return dataclasses.FrozenInstanceError
 
 
-def _tustin_record(mass: float, seed: int = 0):
-    """A Tustin truth on point-to-point moves, 5 ms sampling, 20 s, with a mass `mass`."""
+def _tustin_record(mass: float, seed: int = 0, duration: float = 20.0):
+    """A Tustin truth on point-to-point moves, 5 ms sampling, with a mass `mass`."""
     from jaxfric import trajectories
 
-    t = np.arange(0.0, 20.0, 5e-3)
+    t = np.arange(0.0, duration, 5e-3)
     x = trajectories.point_to_point(t, np.random.default_rng(seed), accel_time=0.05)
     v = np.gradient(x, t)
     a = np.gradient(v, t)
@@ -103,6 +103,18 @@ def _tustin_record(mass: float, seed: int = 0):
     start = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=18.0, Vs=5e-3, delta=2.0),
                            sigma2=40.0)
     return start, t, x, F, v, a
+
+
+def test_diagnose_cv_quick_case():
+    """The whole path on a tiny case: one candidate, one round, two folds."""
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    d = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
+                    rules=rules)
+    assert d.final.added == ["inertia"]
+    assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
+    assert d.candidates[0].t_stat >= rules.z
+    assert d.to_json()["after"]["added"] == ["inertia"]
 
 
 @pytest.mark.slow
