@@ -38,7 +38,7 @@ def _true_mass(t_fine_dt=2e-4):
 
 def test_point_to_point_mass_error_is_found_and_recovered():
     d = _diagnose(*_p2p(("inertia",)))
-    assert d.final.added[0] == "inertia"
+    assert "inertia" in d.final.added
     mass = float(next(e for e in d.model.effects if e.name == "inertia").mass)
     assert mass == pytest.approx(_true_mass(), rel=0.2)
     assert d.final.rmse_holdout < d.baseline.rmse_holdout
@@ -56,5 +56,6 @@ def test_point_to_point_clean_file_gets_no_effect():
 
 @pytest.mark.parametrize(("truth", "hidden"), [("gms_power", "cogging"), ("lugre", "offset")])
 def test_diagnosis_motion_singles_are_still_found(truth, hidden):
+    """Found, possibly after the base model was replaced by a GMS (the truth's family)."""
     d = _diagnose(*synthetic.measurement(truth, (hidden,), dt=1e-2))
-    assert d.final.added[:1] == [hidden]
+    assert [n for n in d.final.added if not n.startswith("GMS")] == [hidden]
