@@ -42,7 +42,7 @@ from jaxfric._compile import jit
 from jaxfric._fields import parameter_info
 
 from . import _params
-from ._fit import fit
+from ._fit import fit, fit_batch
 from ._rules import DiagnosisRules
 from ._transforms import Identity, ParamProps
 
@@ -231,10 +231,26 @@ class Fitter:
         return res.fit_model, d.simulate(res.fit_model)
 
     def cross_validate(self, option: Option, folds) -> None:
-        """Refit `option` (from its fit on all samples) with each fold held out."""
-        if not option.fold_preds:
-            option.fold_preds = [self.fit(option.fitted, option.on, train)[1]
+        """Refit `option` (from its fit on all samples) with each fold held out: all folds
+        in one `fitting.fit_batch` call (a `fitting.fit` started at an optimum can stop
+        at once without a step; the batch solve moves). With a load signal, which
+        `fit_batch` does not take, one `fit` per fold from the option's start."""
+        if option.fold_preds:
+            return
+        d, k = self.data, len(folds)
+        if d.load is not None:
+            option.fold_preds = [self.fit(option.model, option.on, train)[1]
                                  for train, _ in folds]
+            return
+        fit_model, props = self.props(option.fitted, option.on)
+
+        def rows(arr):
+            return None if arr is None else np.broadcast_to(arr, (k, arr.size))
+
+        res = fit_batch(fit_model, rows(d.t), rows(d.x), rows(d.F), rows(d.v),
+                        weights=np.stack([np.asarray(tr, float) for tr, _ in folds]),
+                        props=props, max_steps=self.max_steps, a=rows(d.a))
+        option.fold_preds = list(np.asarray(res.prediction))
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
