@@ -158,14 +158,18 @@ def _signals(data: Data, base_model) -> fx.Signals:
                       load=None if data.load is None else jnp.asarray(data.load))
 
 
-def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None):
+def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
+                 weights=None):
     """Effect `name` at the grid point whose term best regresses `resid` (N, measured minus
-    model), its linear parameters at that regression's values (clipped to their physical
-    range). `s`: the signals of `base_model` on `data`, if already computed."""
+    model) on the samples of weight > 0 (`weights`; default all), its linear parameters at
+    that regression's values (clipped to their physical range). `s`: the signals of
+    `base_model` on `data`, if already computed."""
     s = _signals(data, base_model) if s is None else s
+    keep = slice(None) if weights is None else np.asarray(weights) > 0
+    resid = resid[keep]
     best, best_gain = None, -np.inf
     for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
-        X = _columns(e, s)
+        X = _columns(e, s)[keep]
         w, *_ = np.linalg.lstsq(X, resid, rcond=None)
         gain = float(resid @ resid - np.sum((resid - X @ w) ** 2))
         if gain > best_gain:
@@ -229,6 +233,25 @@ class Fitter:
                   max_steps=self.max_steps, load=d.load, a=d.a)
         self.last = res
         return res.fit_model, d.simulate(res.fit_model)
+
+    def cross_validate_searched(self, option: Option, current: Option, folds,
+                                new: dict) -> None:
+        """For an option with a searched nonlinear parameter (`new`: slot index -> effect
+        name): each fold picks its own grid start on its training samples, from the current
+        model's residual with that fold held out, and is refitted from there (a grid
+        point picked on all samples has seen the held-out blocks)."""
+        if option.fold_preds:
+            return
+        s = _signals(self.data, current.fitted.without_effects())
+        preds = []
+        for k, (train, _) in enumerate(folds):
+            model = option.model
+            resid = self.data.F - current.fold_preds[k]
+            for i, name in new.items():
+                e = start_effect(name, self.data, None, resid, s, weights=train)
+                model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
+            preds.append(self.fit(model, option.on, train)[1])
+        option.fold_preds = preds
 
     def cross_validate(self, option: Option, folds) -> None:
         """Refit `option` (from its fit on all samples) with each fold held out: all folds
@@ -364,7 +387,14 @@ def _cross_validate(fitter, current, options, folds, rules, log):
     fitter.cross_validate(current, folds)
     for o in options:
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
-        fitter.cross_validate(o, folds)
+        names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
+        d = fitter.data
+        searched = {i: n for i, n in names.items()
+                    if len(fx.EFFECTS[n].grid(d.t, d.x, d.v, d.F)) > 1}
+        if searched and not o.base:
+            fitter.cross_validate_searched(o, current, folds, names)
+        else:
+            fitter.cross_validate(o, folds)
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else ""))
