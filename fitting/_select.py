@@ -293,12 +293,7 @@ def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
 
 def held_out_sse(option: Option, folds, F: np.ndarray) -> float:
     """The held-out SSE of `option` over all folds (N^2; every sample held out once)."""
-    return float(sum(np.sum(((option.fold_preds[k] - F)[idx]) ** 2)
-                     for k, idx in _blocks(folds)))
-
-
-def _qualifies(option: Option, z: float) -> bool:
-    return option.z >= z and not option.physical
+    return float(sum(np.sum((option.fold_preds[k] - F)[idx] ** 2) for k, idx in _blocks(folds)))
 
 
 @dataclasses.dataclass
@@ -398,5 +393,5 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else ""))
-    good = [o for o in options if _qualifies(o, rules.z)]
+    good = [o for o in options if o.z >= rules.z and not o.physical]
     return max(good, key=lambda o: o.gain) if good else None

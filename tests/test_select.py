@@ -73,6 +73,23 @@ def test_start_effect_finds_the_cogging_period_on_its_grid():
     assert float(np.hypot(e.cog_sin, e.cog_cos)) == pytest.approx(np.hypot(0.5, 0.2), rel=0.1)
 
 
+def test_start_effect_sees_only_the_training_samples():
+    """A fold's grid start is picked on its training samples: a cogging of another period
+    in the held-out half does not move it."""
+    t = np.linspace(0, 20, 4000)
+    x = 4e-3 * np.sin(2 * np.pi * t / 10)
+    v = np.gradient(x, t)
+    data = S.Data(t, x, v, 20 * np.tanh(v / 1e-3))
+    train = (t < 10).astype(float)
+    resid = np.where(train > 0, 0.5 * np.sin(2 * np.pi * x / 1.3e-3),
+                     2.0 * np.sin(2 * np.pi * x / 0.5e-3))
+    base = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=20.0, Vs=1e-3, delta=2.0), sigma2=0.0)
+    e = S.start_effect("cogging", data, base, resid, weights=train)
+    assert float(e.period) == pytest.approx(1.3e-3, rel=0.03)
+    assert float(S.start_effect("cogging", data, base, resid).period) == pytest.approx(
+        0.5e-3, rel=0.03)
+
+
 def test_rules_are_checked():
     with pytest.raises(ValueError):
         DiagnosisRules(folds=1)
