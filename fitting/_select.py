@@ -15,9 +15,11 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    regresses the current residual, its linear ones at that regression's values, the base
    model's at the *starting* model's (a fitted base model has bent its Stribeck curve and
    viscous term around the missing effect, a poor start for the refit);
-2. the `tried` options with the lowest training error are cross-validated: refitted with
-   each fold held out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
-   `time_block_folds` makes the default), as is the current model;
+2. the `tried` options with the lowest training error are cross-validated: refitted from
+   their starts with each fold held out in turn (`folds`, a plain list of
+   ``(train_weights, test_weights)``; `time_block_folds` makes the default), a searched
+   nonlinear parameter's grid start picked again on the fold's training samples; so is
+   the current model;
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, and every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
@@ -42,7 +44,7 @@ from jaxfric._compile import jit
 from jaxfric._fields import parameter_info
 
 from . import _params
-from ._fit import fit, fit_batch
+from ._fit import fit
 from ._rules import DiagnosisRules
 from ._transforms import Identity, ParamProps
 
@@ -236,10 +238,10 @@ class Fitter:
 
     def cross_validate_searched(self, option: Option, current: Option, folds,
                                 new: dict) -> None:
-        """For an option with a searched nonlinear parameter (`new`: slot index -> effect
+        """As `cross_validate` for an option adding effects (`new`: slot index -> effect
         name): each fold picks its own grid start on its training samples, from the current
-        model's residual with that fold held out, and is refitted from there (a grid
-        point picked on all samples has seen the held-out blocks)."""
+        model's residual with that fold held out (a grid point picked on all samples has
+        seen the held-out blocks)."""
         if option.fold_preds:
             return
         s = _signals(self.data, current.fitted.without_effects())
@@ -254,26 +256,13 @@ class Fitter:
         option.fold_preds = preds
 
     def cross_validate(self, option: Option, folds) -> None:
-        """Refit `option` (from its fit on all samples) with each fold held out: all folds
-        in one `fitting.fit_batch` call (a `fitting.fit` started at an optimum can stop
-        at once without a step; the batch solve moves). With a load signal, which
-        `fit_batch` does not take, one `fit` per fold from the option's start."""
-        if option.fold_preds:
-            return
-        d, k = self.data, len(folds)
-        if d.load is not None:
+        """Refit `option` from its start (`option.model`) with each fold held out. Not
+        from its fit on all samples: a fit started at an optimum can stop at once (the
+        solver's tolerance test), leaving the held-out blocks predicted by a model that
+        was fitted on them."""
+        if not option.fold_preds:
             option.fold_preds = [self.fit(option.model, option.on, train)[1]
                                  for train, _ in folds]
-            return
-        fit_model, props = self.props(option.fitted, option.on)
-
-        def rows(arr):
-            return None if arr is None else np.broadcast_to(arr, (k, arr.size))
-
-        res = fit_batch(fit_model, rows(d.t), rows(d.x), rows(d.F), rows(d.v),
-                        weights=np.stack([np.asarray(tr, float) for tr, _ in folds]),
-                        props=props, max_steps=self.max_steps, a=rows(d.a))
-        option.fold_preds = list(np.asarray(res.prediction))
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
@@ -383,10 +372,7 @@ def _cross_validate(fitter, current, options, folds, rules, log):
     for o in options:
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
-        d = fitter.data
-        searched = {i: n for i, n in names.items()
-                    if len(fx.EFFECTS[n].grid(d.t, d.x, d.v, d.F)) > 1}
-        if searched and not o.base:
+        if names and not o.base:
             fitter.cross_validate_searched(o, current, folds, names)
         else:
             fitter.cross_validate(o, folds)
