@@ -110,6 +110,7 @@ from ._derivatives import (
     estimate_velocity as estimate_velocity,
 )
 from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
+from ._diagnose_cv import diagnose_cv as diagnose_cv
 from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult
 from ._params import (
@@ -119,6 +120,7 @@ from ._params import (
 )
 from ._regimes import regime_errors as regime_errors, regimes as regimes
 from ._result import FitResult as FitResult
+from ._rules import DiagnosisRules as DiagnosisRules
 from ._solve import default_solver as default_solver
 from ._staged import (
     constant_velocity_segments as constant_velocity_segments,

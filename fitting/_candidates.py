@@ -178,5 +178,8 @@ class Candidate:
     code: str
 
     def to_json(self) -> dict:
-        return {"effect": self.name, "score": self.score, "t_stat": self.t_stat,
+        def num(v):  # JSON has no NaN: a candidate not cross-validated has no score
+            return float(v) if np.isfinite(v) else None
+
+        return {"effect": self.name, "score": num(self.score), "t_stat": num(self.t_stat),
                 "significant": self.significant, "evidence": self.evidence, "code": self.code}

@@ -122,6 +122,9 @@ class Diagnosis:
     #: For a long record, how the effects were searched on fewer samples
     #: (`fitting._search_copy`); empty when every sample was used throughout.
     search: str = ""
+    #: What the diagnosis found beyond the effects, in words: "the base model is the limit
+    #: here: ..." when a richer base model won (`fitting._diagnose_cv`); empty otherwise.
+    finding: str = ""
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -149,6 +152,7 @@ class Diagnosis:
             "warnings": self.warnings,
             "trials": self.trials,
             **({"search": self.search} if self.search else {}),
+            **({"finding": self.finding} if self.finding else {}),
             **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
@@ -172,6 +176,8 @@ class Diagnosis:
                          f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
         if not self.steps:
             lines.append("nothing significant to add")
+        if self.finding:
+            lines.append(self.finding)
         for which, flags in self.warnings.items():
             lines += [f"warning ({which} model): {flag}" for flag in flags]
         return "\n".join(lines)

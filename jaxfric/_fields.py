@@ -28,14 +28,19 @@ _MISSING = dataclasses.MISSING
 
 
 def param(unit: str, *, constraint: Any = None, group: str | None = None,
-          role: str | None = None, default: Any = _MISSING) -> Any:
+          role: str | None = None, default: Any = _MISSING, linear: bool = False,
+          physical: tuple[float, float] | None = None) -> Any:
     """A parameter field (an `equinox.field` with the `as_param` converter): `unit` is its
     SI unit as text (``"N"``, ``"m/s"``, ``"N s/m"``, ``"-"`` for none), `constraint` one of
     the module docstring's, `group` a name that ``free=`` accepts for several parameters
     (``"stribeck"``, ``"shape"``), `role` the part of the friction it describes where the
     staged fit needs to know (``"presliding"``: the memory of the presliding curve;
-    ``"lag"``: the friction lag)."""
-    metadata = {"unit": unit, "constraint": constraint, "group": group, "role": role}
+    ``"lag"``: the friction lag). For an effect's parameters (`jaxfric.effects`), what a
+    diagnosis needs: `linear` when the term is linear in it (0 switches the effect off),
+    `physical` the ``(lo, hi)`` range a fitted value must fall in to be physical (a mass
+    is not negative), checked after the fit rather than imposed by a transform."""
+    metadata = {"unit": unit, "constraint": constraint, "group": group, "role": role,
+                "linear": linear, "physical": physical}
     if default is _MISSING:
         return eqx.field(converter=as_param, metadata=metadata)
     return eqx.field(converter=as_param, default=default, metadata=metadata)

@@ -35,71 +35,56 @@ replacing the Coulomb jump at reversals by a spring) and `friction_lag` (the for
 the base model's Stribeck curve through a first-order lag: ``lag_gain`` (1), ``tau`` s).
 """
 
-import abc
 import math
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike
 
+from ._effect_model import (
+    _acceleration as _acceleration,
+    _as_effects as _as_effects,
+    AbstractEffect as AbstractEffect,
+    add_effects as add_effects,
+    Signals as Signals,
+    static_force as static_force,
+    WithEffects as WithEffects,
+    WithEffectsState as WithEffectsState,
+)
 from ._fields import param
-from ._models._base import AbstractFrictionModel, SimResult
 from ._numerics import linear_recurrence, safe_div
-from .motion import Motion
 
 
-class Signals(eqx.Module):
-    """What an effect sees per sample: ``t`` (s), ``x`` (m), ``v`` (m/s), ``a`` (m/s^2),
-    ``dt`` (s) and ``dx`` (m) since the previous sample (0 at the first), ``t0`` (first
-    sample time, s), ``base`` (the base model's force, N) and ``static`` (its Stribeck curve
-    ``s(v)`` without the viscous term, N; the base force for a model without one);
-    ``load`` (the transmitted load, N or N m, or ``None`` when none was given)."""
+_INF = math.inf
 
-    t: Array
-    x: Array
-    v: Array
-    a: Array
-    dt: Array
-    dx: Array
-    t0: Array
-    base: Array
-    static: Array
-    load: Array | None = None
+#: The shortest settling time of a drift a diagnosis searches is the record's duration
+#: over this (`Drift.grid`).
+DRIFT_SPAN_RATIO = 10
+
+#: The most ripples per revolution a diagnosis searches (`Ripple.grid`).
+RIPPLE_MAX = 720
 
 
-class AbstractEffect(eqx.Module):
-    """A named additive force term; see the module docstring for the library."""
+def _steps(x) -> np.ndarray:
+    dx = np.abs(np.diff(np.asarray(x, float)))
+    return dx[dx > 0]
 
-    name: ClassVar[str]
 
-    @abc.abstractmethod
-    def term(self, s: Signals) -> Array:
-        """The effect's force (N) for a whole trajectory (arrays in `s`)."""
-
-    def init_state(self, x0: Array) -> Any:
-        """State of a stateful effect at the first sample (None: memoryless)."""
-        return None
-
-    def step_term(self, state: Any, s: Signals) -> tuple[Any, Array]:
-        """One sample (scalars in `s`): ``(new_state, force)``; memoryless by default."""
-        return state, self.term(s)
-
-    def describe(self) -> str:
-        """One line with the effect's parameter values and units."""
-        return self.name
-
-    def add_to(self, model: AbstractFrictionModel) -> "WithEffects":
-        """``model + self``: `model` with this effect appended."""
-        return add_effects(model, self)
+def _shortest_period(x) -> float:
+    """The shortest position period (m) a record resolves: 8 of its median position steps,
+    and at least 1/2000 of the travel."""
+    dx = _steps(x)
+    return max(8 * (float(np.median(dx)) if dx.size else 1e-6), float(np.ptp(x)) / 2000)
 
 
 class Viscous(AbstractEffect):
     """``c_visc * v``: extra linear damping, N s/m."""
 
     name: ClassVar[str] = "viscous"
-    c_visc: Array = param("N s/m", default=0.0)
+    c_visc: Array = param("N s/m", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.c_visc * s.v
@@ -112,7 +97,7 @@ class QuadraticDrag(AbstractEffect):
     """``c_drag * v * |v|``, N s^2/m^2."""
 
     name: ClassVar[str] = "quadratic_drag"
-    c_drag: Array = param("N s^2/m^2", default=0.0)
+    c_drag: Array = param("N s^2/m^2", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.c_drag * s.v * jnp.abs(s.v)
@@ -125,8 +110,14 @@ class StribeckHump(AbstractEffect):
     """``dF_str * exp(-(v/v_str)^2) * sign(v)``: more (or less) friction at low speed."""
 
     name: ClassVar[str] = "stribeck"
-    dF_str: Array = param("N", default=0.0)
+    dF_str: Array = param("N", default=0.0, linear=True, physical=(0.0, _INF))
     v_str: Array = param("m/s", constraint="positive", default=1e-3)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # the speeds the record covers
+        speed = np.abs(v[v != 0]) if np.any(v != 0) else np.ones(1)
+        vs = np.geomspace(np.quantile(speed, 0.02), np.quantile(speed, 0.98), 24)
+        return [cls(v_str=s) for s in vs]
 
     def term(self, s):
         return self.dF_str * jnp.exp(-(safe_div(s.v, self.v_str) ** 2)) * jnp.sign(s.v)
@@ -141,7 +132,7 @@ class Inertia(AbstractEffect):
     a drive force, or a mis-calibrated one."""
 
     name: ClassVar[str] = "inertia"
-    mass: Array = param("kg", default=0.0)
+    mass: Array = param("kg", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         return self.mass * s.a
@@ -154,7 +145,7 @@ class Offset(AbstractEffect):
     """A constant force (N): gravity on an inclined axis, a sensor zero."""
 
     name: ClassVar[str] = "offset"
-    offset: Array = param("N", default=0.0)
+    offset: Array = param("N", default=0.0, linear=True)
 
     def term(self, s):
         return jnp.broadcast_to(self.offset, s.t.shape)
@@ -168,7 +159,7 @@ class Asymmetry(AbstractEffect):
     lower by ``1 - asym`` in the negative one (dimensionless)."""
 
     name: ClassVar[str] = "asymmetry"
-    asym: Array = param("-", default=0.0)
+    asym: Array = param("-", default=0.0, linear=True, physical=(-1.0, 1.0))
 
     def term(self, s):
         return self.asym * jnp.abs(s.base)
@@ -181,9 +172,14 @@ class Cogging(AbstractEffect):
     """``cog_sin * sin(2 pi x / period) + cog_cos * cos(2 pi x / period)`` (N; period m)."""
 
     name: ClassVar[str] = "cogging"
-    cog_sin: Array = param("N", default=0.0)
-    cog_cos: Array = param("N", default=0.0)
+    cog_sin: Array = param("N", default=0.0, linear=True)
+    cog_cos: Array = param("N", default=0.0, linear=True)
     period: Array = param("m", constraint="positive", default=1e-3)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # from the shortest resolved period to half the travel
+        periods = np.geomspace(_shortest_period(x), np.ptp(x) / 2, 160)
+        return [cls(period=p) for p in periods]
 
     def term(self, s):
         phase = 2 * jnp.pi * safe_div(s.x, self.period)
@@ -206,14 +202,18 @@ class PositionDependence(AbstractEffect):
     travel (`x_mid`, `x_half` in m, fixed at construction: `for_travel`)."""
 
     name: ClassVar[str] = "position_dependence"
-    pos_1: Array = param("-", default=0.0)
-    pos_2: Array = param("-", default=0.0)
+    pos_1: Array = param("-", default=0.0, linear=True)
+    pos_2: Array = param("-", default=0.0, linear=True)
     x_mid: float = eqx.field(static=True, default=0.0)
     x_half: float = eqx.field(static=True, default=1.0)
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionDependence":
         return cls(**_travel(x), **params)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        return [cls.for_travel(x)]
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
@@ -232,14 +232,18 @@ class PositionLoad(AbstractEffect):
     travel, so that it does not stand in for an `Offset`."""
 
     name: ClassVar[str] = "position_load"
-    load_1: Array = param("N", default=0.0)
-    load_2: Array = param("N", default=0.0)
+    load_1: Array = param("N", default=0.0, linear=True)
+    load_2: Array = param("N", default=0.0, linear=True)
     x_mid: float = eqx.field(static=True, default=0.0)
     x_half: float = eqx.field(static=True, default=1.0)
 
     @classmethod
     def for_travel(cls, x: ArrayLike, **params) -> "PositionLoad":
         return cls(**_travel(x), **params)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        return [cls.for_travel(x)]
 
     def term(self, s):
         u = (s.x - self.x_mid) / self.x_half
@@ -258,9 +262,18 @@ class Ripple(AbstractEffect):
     the length of `rip_sin`, three by default) shape the ripple that one sine cannot."""
 
     name: ClassVar[str] = "ripple"
-    rip_sin: Array = param("N", default=(0.0, 0.0, 0.0))
-    rip_cos: Array = param("N", default=(0.0, 0.0, 0.0))
+    rip_sin: Array = param("N", default=(0.0, 0.0, 0.0), linear=True)
+    rip_cos: Array = param("N", default=(0.0, 0.0, 0.0), linear=True)
     period: Array = param("m", constraint="positive", default=2 * 3.141592653589793)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Every integer count ``k`` of ripples per revolution (period ``2 pi / k``) from
+        the first whose period fits in the travel to the shortest resolved period, at most
+        `RIPPLE_MAX`: a count one off drifts by a whole period over the travel."""
+        k_min = max(1, int(np.ceil(2 * np.pi / max(float(np.ptp(x)), 1e-12))))
+        k_max = min(RIPPLE_MAX, int(np.floor(2 * np.pi / _shortest_period(x))))
+        return [cls(period=2 * np.pi / k) for k in range(k_min, max(k_min, k_max) + 1)]
 
     def __check_init__(self):
         if jnp.shape(self.rip_sin) != jnp.shape(self.rip_cos) or jnp.ndim(self.rip_sin) < 1:
@@ -285,8 +298,8 @@ class AngleLoad(AbstractEffect):
     on a rotary axis (`position_load` is the polynomial form for a linear travel)."""
 
     name: ClassVar[str] = "angle_load"
-    g_sin: Array = param("N", default=0.0)
-    g_cos: Array = param("N", default=0.0)
+    g_sin: Array = param("N", default=0.0, linear=True)
+    g_cos: Array = param("N", default=0.0, linear=True)
 
     def term(self, s):
         return self.g_sin * jnp.sin(s.x) + self.g_cos * jnp.cos(s.x)
@@ -320,7 +333,7 @@ class LoadFriction(AbstractEffect):
     `ValueError` (`jaxfric.simulate(..., load=...)`)."""
 
     name: ClassVar[str] = "load_friction"
-    k_load: Array = param("-", default=0.0)
+    k_load: Array = param("-", default=0.0, linear=True, physical=(0.0, _INF))
 
     def term(self, s):
         if s.load is None:
@@ -344,8 +357,15 @@ class Drift(AbstractEffect):
     accelerating change."""
 
     name: ClassVar[str] = "drift"
-    drift_rate: Array = param("1/s", default=0.0)
+    drift_rate: Array = param("1/s", default=0.0, linear=True)
     drift_decay: Array = param("1/s", default=0.0)
+
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Linear (wear), or settling (a warm-up) over a tenth to twice the record."""
+        span = max(float(t[-1] - t[0]), 1e-9)
+        taus = np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)
+        return [cls(drift_decay=d) for d in (0.0, *(1.0 / taus))]
 
     def term(self, s):
         elapsed = s.t - s.t0
@@ -384,6 +404,15 @@ class Presliding(AbstractEffect):
     F_pre: Array = param("N", constraint="positive", default=1.0)
     k_pre: Array = param("N/m", constraint="positive", default=1e6)
 
+    @classmethod
+    def grid(cls, t, x, v, F):
+        """Reversal travels ``2 F_pre / k_pre`` from 1e-4 of half the travel to all of it, at
+        the median force level."""
+        level = float(np.median(np.abs(F))) or 1.0
+        dmax = float(np.ptp(x)) / 2
+        return [cls(F_pre=level, k_pre=2 * level / d)
+                for d in np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)]
+
     def init_state(self, x0):
         return jnp.zeros_like(x0)
 
@@ -415,8 +444,15 @@ class FrictionLag(AbstractEffect):
     viscous term too would act like a (negative) mass and trade off against `inertia`."""
 
     name: ClassVar[str] = "friction_lag"
-    lag_gain: Array = param("-", constraint=("interval", 0.0, 1.0), default=0.0)
+    lag_gain: Array = param("-", constraint=("interval", 0.0, 1.0), default=0.0,
+                          linear=True, physical=(0.0, 1.0))
     tau: Array = param("s", constraint="positive", default=0.1)
+
+    @classmethod
+    def grid(cls, t, x, v, F):  # from one sampling interval to a tenth of the record
+        span = float(t[-1] - t[0])
+        taus = np.geomspace(max(float(np.median(np.diff(t))), 1e-6), span / 10, 24)
+        return [cls(tau=tau) for tau in taus]
 
     def init_state(self, x0):
         return (jnp.zeros_like(x0), jnp.zeros((), bool))
@@ -456,97 +492,3 @@ ROTARY_EFFECTS: tuple[str, ...] = ("ripple", "angle_load")
 
 #: Effects that read the load signal: a diagnosis screens them only when the data have one.
 LOAD_EFFECTS: tuple[str, ...] = ("load_friction",)
-
-
-def static_force(model, v: Array, force: Array) -> Array:
-    """`model`'s Stribeck curve ``s(v)`` (N) without viscous term, or `force` if it has none."""
-    stribeck = getattr(model, "stribeck", None)
-    return stribeck(v) if stribeck is not None else force
-
-
-def _acceleration(v: Array, dt: Array) -> Array:
-    """Backward difference of `v` (m/s^2); 0 at the first sample."""
-    dv = jnp.diff(v, prepend=v[:1])
-    return safe_div(dv, dt)
-
-
-class WithEffectsState(eqx.Module):
-    base: Any
-    effects: tuple
-    x_prev: Array
-    v_prev: Array
-    t: Array
-
-
-class WithEffects(AbstractFrictionModel):
-    """A friction model plus additive effects: ``force = base + sum(effect terms)``.
-
-    Built with ``model + effect`` (or ``model + (e1, e2)``); adding to a `WithEffects`
-    appends. `parts` of the full output hold the base model's parts, ``"base"`` and one
-    entry per effect name.
-    """
-
-    base: AbstractFrictionModel
-    effects: tuple[AbstractEffect, ...]
-
-    def __check_init__(self):
-        names = [e.name for e in self.effects]
-        if len(set(names)) != len(names):
-            raise ValueError(f"an effect was added twice: {names}")
-
-    def _simulate(self, motion: Motion) -> SimResult:
-        r = self.base._simulate(motion)
-        a = _acceleration(motion.v, motion.dt) if motion.a is None else motion.a
-        s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
-                    t0=motion.t[0], base=r.force,
-                    static=static_force(self.base, motion.v, r.force), load=motion.load)
-        terms = {e.name: e.term(s) for e in self.effects}
-        force = r.force + sum(terms.values())
-        return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
-                         overflow=r.overflow)
-
-    def init_state(self, x0: ArrayLike = 0.0) -> WithEffectsState:
-        base = self.base.init_state(x0)
-        x0 = jnp.asarray(x0, dtype=jnp.asarray(0.0).dtype)
-        zero = jnp.zeros_like(x0)
-        return WithEffectsState(base=base, effects=tuple(e.init_state(x0) for e in self.effects),
-                                x_prev=x0, v_prev=zero, t=zero)
-
-    def step(self, state: WithEffectsState, x, v, dt, load=None):
-        """One sample, as the base model's `step`; `load` (N or N m) for the effects
-        that read it (`LoadFriction`)."""
-        base_state, f = self.base.step(state.base, x, v, dt)
-        x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
-        t = state.t + dt
-        s = Signals(t=t, x=x, v=v, a=safe_div(v - state.v_prev, dt), dt=dt,
-                    dx=x - state.x_prev, t0=jnp.zeros_like(t), base=f,
-                    static=static_force(self.base, v, f),
-                    load=None if load is None else jnp.asarray(load))
-        new, total = [], f
-        for e, st in zip(self.effects, state.effects):
-            st, term = e.step_term(st, s)
-            new.append(st)
-            total = total + term
-        return WithEffectsState(base=base_state, effects=tuple(new), x_prev=x, v_prev=v,
-                                t=t), total
-
-    def __add__(self, other):
-        return WithEffects(self.base, self.effects + _as_effects(other))
-
-    def without_effects(self) -> AbstractFrictionModel:
-        return self.base
-
-
-def _as_effects(other) -> tuple[AbstractEffect, ...]:
-    items = other if isinstance(other, tuple | list) else (other,)
-    for e in items:
-        if not isinstance(e, AbstractEffect):
-            raise TypeError(f"can only add jaxfric effects to a model, not {type(e).__name__}")
-    return tuple(items)
-
-
-def add_effects(model: AbstractFrictionModel, other) -> WithEffects:
-    """``model + other`` (`AbstractEffect.add_to` calls this)."""
-    if isinstance(model, WithEffects):
-        return model + other
-    return WithEffects(model, _as_effects(other))

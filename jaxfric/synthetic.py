@@ -5,9 +5,13 @@ tests from other truths.
 - **truths** (`truth`): a 60-element GMS whose virgin curve is another family (a power law)
   with its own Stribeck curve (``gms_power``); a LuGre model with stiff bristles
   (``lugre``); a two-state model with a `PowerShape` presliding curve
-  (``two_state_power``);
+  (``two_state_power``); and, not a jaxfric model at all, true stiction (``stiction``,
+  `stiction_force`: a stiff stuck spring that breaks away above the sliding curve and drops
+  to it, stick-slip at every start);
 - **motion**: `jaxfric.examples.diagnosis_motion` with its velocity steps turned into
-  ramps of 0.1 s (`finite_acceleration`), so that a mass has something to act on;
+  ramps of 0.1 s (`finite_acceleration`), so that a mass has something to act on; or any
+  family of `jaxfric.trajectories` (``motion="point_to_point"``, ...), optionally recorded
+  by a jittering clock (``jitter``);
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
   with the fine grid's own central-difference velocity, and the hidden effects are computed
   there with formulas written here (`hidden_force`), not with `jaxfric.effects`;
@@ -26,6 +30,8 @@ FINE = 10  # the truth runs on a grid this many times finer than the sampling
 RAMP = 0.1  # s: the stage changes its velocity over this time (a finite acceleration)
 ENCODER = 0.05e-6  # m per count
 TRUTHS = ("gms_power", "lugre", "two_state_power")
+#: Truths that no jaxfric model family is (`stiction_force`).
+FOREIGN_TRUTHS = ("stiction",)
 HIDDEN = ("quadratic_drag", "asymmetry", "inertia", "cogging", "drift", "offset",
           "position_dependence", "position_load", "stribeck", "friction_lag")
 #: Hidden effects of a joint angle: for rotary files (`measurement` with `rotary`).
@@ -62,6 +68,32 @@ def truth(name: str):
 
         return diagnosis_truth()
     raise ValueError(name)
+
+
+def _stribeck_level(v, Fs=24.0, Fc=20.0, Vs=3e-3):
+    return Fc + (Fs - Fc) * np.exp(-((v / Vs) ** 2))
+
+
+def stiction_force(t, x, v, *, breakaway=27.0, stiffness=1e7, sigma2=60.0):
+    """True stiction (N) on the motion ``(t, x, v)`` (s, m, m/s; a fine grid): while stuck
+    the contact is a stiff spring (`stiffness` N/m from where it stuck) until its force
+    exceeds `breakaway` N, above the sliding curve's peak (24 N); then it slips and the
+    force drops at once to the sliding curve ``sign(v) s(v) + sigma2 v`` (Stribeck 24 ->
+    20 N, 3 mm/s). It sticks again where the velocity reverses or stops, with the force
+    it had (no jump). No jaxfric family has this breakaway-and-drop: their presliding
+    curves rise smoothly to the sliding level."""
+    f = np.empty_like(x)
+    stuck, anchor = True, x[0]
+    for i in range(x.size):
+        if stuck:
+            f[i] = stiffness * (x[i] - anchor)
+            if abs(f[i]) > breakaway and v[i] != 0:
+                stuck = False
+        if not stuck:
+            f[i] = np.sign(v[i]) * _stribeck_level(v[i]) + sigma2 * v[i]
+            if v[i] == 0 or (i + 1 < x.size and v[i + 1] * v[i] <= 0):
+                stuck, anchor = True, x[i] - f[i] / stiffness
+    return f
 
 
 def _central(t, y):
@@ -151,7 +183,8 @@ def finite_acceleration(t, x, ramp: float):
 
 
 def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.03,
-                dt: float = 1e-2, seed: int = 0, rotary: bool = False, load: bool = False):
+                dt: float = 1e-2, seed: int = 0, rotary: bool = False, load: bool = False,
+                motion: str | None = None, duration: float = 100.0, jitter: float = 0.0):
     """``(t, x, F)`` (s, m, N) as a sensor would record them: the `diagnosis_motion` of
     `seed` through truth `truth_name` plus the `hidden` effects, sampled every `dt`, the
     position quantised to `ENCODER`, the force with `noise` N of white noise.
@@ -163,24 +196,42 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     functions of the angle.
 
     `load`: return ``(t, x, F, L)`` with the transmitted load `L` (`load_signal`, N or N m,
-    with `LOAD_NOISE` of white noise) that the hidden ``load_friction`` reads."""
-    from . import simulate
+    with `LOAD_NOISE` of white noise) that the hidden ``load_friction`` reads.
+
+    `motion`: a family of `jaxfric.trajectories` (its `FAMILIES`) over `duration` s,
+    drawn with `seed`, instead of the diagnosis motion. `jitter`: the logger's clock takes
+    each sample up to this fraction of `dt` early or late (below 0.5; on the fine grid,
+    so the recorded ``t`` is when the sample was really taken)."""
+    from . import simulate, trajectories
     from .examples import diagnosis_motion
 
-    t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
-    x_fine = finite_acceleration(t_fine, x_fine, RAMP)
-    model = truth(truth_name)
+    if motion is None:
+        t_fine, x_fine = diagnosis_motion(dt=dt / FINE, seed=seed, separable=True)
+        x_fine = finite_acceleration(t_fine, x_fine, RAMP)
+    else:
+        t_fine = np.arange(0.0, duration, dt / FINE)
+        x_fine = trajectories.FAMILIES[motion](t_fine, np.random.default_rng(seed))
     v = _central(t_fine, x_fine)
     a = _central(t_fine, v)
-    base = np.asarray(simulate(model, t_fine, x_fine, v))
+    if truth_name == "stiction":
+        base = stiction_force(t_fine, x_fine, np.where(np.abs(v) < 1e-7, 0.0, v))
+        static = _stribeck_level(v)
+    else:
+        model = truth(truth_name)
+        base = np.asarray(simulate(model, t_fine, x_fine, v))
+        static = np.asarray(model.stribeck.magnitude(v))  # |s(v)|, Fs at rest (s(0) is 0)
     level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
-    static = np.asarray(model.stribeck.magnitude(v))  # |s(v)|, Fs at rest (s(0) is 0)
     k = ROTARY_SCALE if rotary else 1.0
     force = base + sum((_load_force(t_fine, v) if h in HIDDEN_LOAD else
                         hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)
                         for h in hidden), np.zeros_like(base))
-    keep = slice(0, None, FINE)
     rng = np.random.default_rng(1000 + seed)
+    if not 0.0 <= jitter < 0.5:
+        raise ValueError("jitter must be in [0, 0.5) of the sampling interval")
+    keep = np.arange(0, t_fine.size, FINE)
+    j = round(jitter * FINE)
+    if j:
+        keep = np.clip(keep + rng.integers(-j, j + 1, keep.size), 0, t_fine.size - 1)
     t = t_fine[keep]
     x = np.round(x_fine[keep] / ENCODER) * ENCODER * k
     F = force[keep] + noise * rng.standard_normal(t.size)

@@ -1,0 +1,45 @@
+"""`DiagnosisRules`: every threshold of the diagnosis's decision, in one frozen object.
+
+``fitting.diagnose(..., rules=DiagnosisRules(z=3.0))`` changes one; the decision itself is
+`fitting._select`. Each field is documented here and nowhere else.
+"""
+
+import dataclasses
+
+
+@dataclasses.dataclass(frozen=True)
+class DiagnosisRules:
+    """The five numbers the diagnosis decides by (`fitting._select`).
+
+    - `blocks`: the record is cut into this many contiguous time blocks of equal duration.
+      A block is the unit of evidence: the held-out error of the model with and without
+      an effect is compared block by block, so blocks must be longer than the residual's
+      correlation (a drift, a mismatched presliding curve), and there must be enough of
+      them for a standard error (20: each block is 5 % of the record).
+    - `folds`: the blocks are dealt to this many folds in turn (block ``b`` to fold
+      ``b % folds``); each fold is held out once while the model is refitted on the other
+      blocks, so every sample is held out exactly once and every regime the record visits
+      more than once is in every training set (4: a quarter of the record held out).
+    - `z`: an effect is accepted when the mean over blocks of the held-out sum of squares it
+      removes exceeds `z` standard errors of that mean (a one-sided test on block-level
+      differences, which carry the residual's autocorrelation within them). 2.0 is a
+      false-alarm rate of about 2.5 % for one candidate with independent blocks; the
+      rule cross-validates only `tried` candidates per round, so the family-wise rate per
+      round is at most about 7 %, and the effect must also be physical.
+    - `tried`: per round, the candidates with the lowest training error after their full
+      refit are cross-validated, this many; when none qualifies, the pairs of those are.
+    - `max_added`: at most this many effects (or base-model changes) are added.
+    """
+
+    blocks: int = 20
+    folds: int = 4
+    z: float = 2.0
+    tried: int = 3
+    max_added: int = 4
+
+    def __post_init__(self):
+        if self.folds < 2 or self.blocks < self.folds:
+            raise ValueError(f"need folds >= 2 and blocks >= folds, got folds={self.folds}, "
+                             f"blocks={self.blocks}")
+        if self.z <= 0 or self.tried < 1 or self.max_added < 0:
+            raise ValueError("need z > 0, tried >= 1 and max_added >= 0")

@@ -1,0 +1,383 @@
+"""The diagnosis's decision: which effects to add, judged by full refits and blocked
+cross-validation, with one rule (`fitting._rules.DiagnosisRules`).
+
+**Options.** Every candidate effect of `jaxfric.effects` with a linear parameter is an
+option, and so is a richer base model (`base_options`: a GMS with more elements), which
+says "the base model is the limit here" when it wins. All effects sit in one *superset*
+model (``plain + every candidate``, each switched off by its linear parameters at 0,
+``param(..., linear=True)``), so every refit fits the same compiled program; an option
+switches its effect on by freeing its parameters (the free set is data, not structure).
+
+**Each round** (forward selection):
+
+1. each option is fitted jointly with the base model to convergence on every sample: its
+   nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term best
+   regresses the current residual, its linear ones at that regression's values, the base
+   model's at the *starting* model's (a fitted base model has bent its Stribeck curve and
+   viscous term around the missing effect, a poor start for the refit);
+2. the `tried` options with the lowest training error are cross-validated: refitted from
+   their starts with each fold held out in turn (`folds`, a plain list of
+   ``(train_weights, test_weights)``; `time_block_folds` makes the default), a searched
+   nonlinear parameter's grid start picked again on the fold's training samples; so is
+   the current model;
+3. an option qualifies when its held-out gain, block by block (each contiguous run of a
+   fold's test samples is a block), has a mean above `z` standard errors, and every fitted
+   parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
+   option with the largest gain is added;
+4. when none qualifies, the pairs of the `tried` options are refitted and judged the same.
+
+The round repeats until nothing qualifies or `max_added` are in.
+"""
+
+import dataclasses
+import itertools
+from collections.abc import Callable, Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import jaxfric
+from jaxfric import effects as fx
+from jaxfric._compile import jit
+from jaxfric._fields import parameter_info
+
+from . import _params
+from ._fit import fit
+from ._rules import DiagnosisRules
+from ._transforms import Identity, ParamProps
+
+
+def time_block_folds(t, blocks: int, folds: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``[(train_weights, test_weights)]`` of `folds` folds: `blocks` contiguous time
+    blocks of equal duration, block ``b`` held out in fold ``b % folds``."""
+    t = np.asarray(t, float)
+    b = np.minimum((blocks * (t - t[0]) / (t[-1] - t[0])).astype(int), blocks - 1)
+    return [((b % folds != k).astype(float), (b % folds == k).astype(float))
+            for k in range(folds)]
+
+
+def _blocks(folds) -> list[tuple[int, np.ndarray]]:
+    """``(fold, sample indices)`` of every contiguous run of each fold's test samples."""
+    out = []
+    for k, (_, test) in enumerate(folds):
+        idx = np.flatnonzero(np.asarray(test) > 0)
+        for run in np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1):
+            if run.size:
+                out.append((k, run))
+    return out
+
+
+@dataclasses.dataclass
+class Data:
+    """The record every fit uses (SI arrays; `a` and `load` may be None)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    F: np.ndarray
+    a: np.ndarray | None = None
+    load: np.ndarray | None = None
+
+    def simulate(self, model) -> np.ndarray:
+        return np.asarray(jaxfric.simulate(model, self.t, self.x, self.v, load=self.load,
+                                           a=self.a))
+
+
+@dataclasses.dataclass
+class Option:
+    """One thing the rule can add: `names` (effect names, or the base model's name),
+    its start `model`, which superset slots it frees (`on`), and what fitting found."""
+
+    names: tuple[str, ...]
+    model: object
+    on: frozenset
+    base: bool = False  # a base-model change (the plain model replaced)
+    fitted: object = None
+    result: object = None  # the `FitResult` of the fit on all samples
+    pred: np.ndarray | None = None
+    sse: float = np.inf  # training SSE on all samples
+    gain: float = np.nan  # held-out SSE removed, share of the current model's
+    z: float = np.nan  # mean block gain over its standard error
+    physical: str = ""  # "" when physical, else why not
+    fold_preds: list = dataclasses.field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return " + ".join(self.names)
+
+
+def _linear(effect) -> list[str]:
+    return [f.name for f in dataclasses.fields(effect) if f.metadata.get("linear")]
+
+
+def switchable(name: str) -> bool:
+    """Whether effect `name` can sit in the superset (it has a linear parameter)."""
+    return bool(_linear(fx.EFFECTS[name]))
+
+
+def _set(effect, values: dict):
+    for k, val in values.items():
+        effect = eqx.tree_at(lambda e, k=k: getattr(e, k), effect,
+                             jnp.asarray(val, float).reshape(jnp.shape(getattr(effect, k))))
+    return effect
+
+
+def _off(effect):
+    return _set(effect, {k: np.zeros(np.shape(getattr(effect, k))) for k in _linear(effect)})
+
+
+@jit
+def _term(effect, s):
+    return effect.term(s)
+
+
+def _columns(effect, s) -> np.ndarray:
+    """The term's derivative w.r.t. each entry of its linear parameters, (n, q)."""
+    zero, cols = _off(effect), []
+    for k in _linear(effect):
+        z = np.zeros(np.shape(getattr(effect, k)))
+        for j in range(z.size):
+            one = z.ravel().copy()
+            one[j] = 1.0
+            cols.append(np.asarray(_term(_set(zero, {k: one.reshape(z.shape)}), s)))
+    return np.stack(cols, axis=1)
+
+
+def _signals(data: Data, base_model) -> fx.Signals:
+    base = np.asarray(jaxfric.simulate(base_model, data.t, data.x, data.v, load=data.load,
+                                       a=data.a))
+    dt = np.r_[0.0, np.diff(data.t)]
+    a = data.a if data.a is not None else np.r_[0.0, np.diff(data.v) / np.where(
+        dt[1:] > 0, dt[1:], 1.0)]
+    return fx.Signals(t=jnp.asarray(data.t), x=jnp.asarray(data.x), v=jnp.asarray(data.v),
+                      a=jnp.asarray(a), dt=jnp.asarray(dt),
+                      dx=jnp.asarray(np.r_[0.0, np.diff(data.x)]), t0=jnp.asarray(data.t[0]),
+                      base=jnp.asarray(base),
+                      static=jnp.asarray(fx.static_force(base_model, jnp.asarray(data.v),
+                                                         jnp.asarray(base))),
+                      load=None if data.load is None else jnp.asarray(data.load))
+
+
+def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
+                 weights=None):
+    """Effect `name` at the grid point whose term best regresses `resid` (N, measured minus
+    model) on the samples of weight > 0 (`weights`; default all), its linear parameters at
+    that regression's values (clipped to their physical range). `s`: the signals of
+    `base_model` on `data`, if already computed."""
+    s = _signals(data, base_model) if s is None else s
+    keep = slice(None) if weights is None else np.asarray(weights) > 0
+    resid = resid[keep]
+    best, best_gain = None, -np.inf
+    for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
+        X = _columns(e, s)[keep]
+        w, *_ = np.linalg.lstsq(X, resid, rcond=None)
+        gain = float(resid @ resid - np.sum((resid - X @ w) ** 2))
+        if gain > best_gain:
+            best, best_gain, best_w = e, gain, w
+    values, k = {}, 0
+    for f in dataclasses.fields(best):
+        if not f.metadata.get("linear"):
+            continue
+        size = int(np.size(getattr(best, f.name)))
+        lo, hi = f.metadata.get("physical") or (-np.inf, np.inf)
+        values[f.name] = np.clip(best_w[k:k + size], lo, hi)
+        k += size
+    return _set(best, values)
+
+
+def physical(effect) -> str:
+    """Why `effect`'s fitted values are not physical ("" when they are), from each
+    field's ``physical`` range."""
+    for f in dataclasses.fields(effect):
+        rng = f.metadata.get("physical")
+        if rng is None:
+            continue
+        val = np.asarray(getattr(effect, f.name), float)
+        if np.any(val < rng[0]) or np.any(val > rng[1]):
+            return f"{f.name} = {np.round(val, 6).tolist()} outside [{rng[0]}, {rng[1]}]"
+    return ""
+
+
+class Fitter:
+    """Fits on one record: `superset` models, each with its own slots switched on."""
+
+    def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None):
+        self.data, self.fixed, self.max_steps = data, tuple(fixed), max_steps
+        self.log = log or (lambda *_: None)
+
+    def props(self, model, on: frozenset):
+        """Free: the base model's leaves (but `fixed`) and those of the effects in `on`
+        (indices into ``model.effects``); an effect's linear leaves on an `Identity`."""
+        fit_model = _params.to_fit_representation(model)
+        effects = getattr(fit_model, "effects", ())
+        plain = fit_model.without_effects() if effects else fit_model
+        n_base = len(parameter_info(plain))
+        owner = [-1] * n_base
+        for i, e in enumerate(effects):
+            owner += [i] * len(parameter_info(e))
+        infos = parameter_info(fit_model)
+        linear = [o >= 0 and info.name in _linear(effects[o]) for o, info in zip(owner, infos)]
+        props = _params.props_leaves(_params.default_props(fit_model))
+        leaves = [ParamProps(Identity() if lin else p.transform,
+                             free=(o < 0 and info.name not in self.fixed) or o in on)
+                  for p, o, lin, info in zip(props, owner, linear, infos)]
+        tree = jax.tree.structure(_params.default_props(fit_model),
+                                  is_leaf=_params._is_props)
+        return fit_model, jax.tree.unflatten(tree, leaves)
+
+    def fit(self, model, on: frozenset, weights=None):
+        """``(fitted model in the fit representation, prediction on every sample)``."""
+        d = self.data
+        fit_model, props = self.props(model, on)
+        res = fit(fit_model, d.t, d.x, d.F, d.v, props=props, weights=weights,
+                  max_steps=self.max_steps, load=d.load, a=d.a)
+        self.last = res
+        return res.fit_model, d.simulate(res.fit_model)
+
+    def cross_validate_searched(self, option: Option, current: Option, folds,
+                                new: dict) -> None:
+        """As `cross_validate` for an option adding effects (`new`: slot index -> effect
+        name): each fold picks its own grid start on its training samples, from the current
+        model's residual with that fold held out (a grid point picked on all samples has
+        seen the held-out blocks)."""
+        if option.fold_preds:
+            return
+        s = _signals(self.data, current.fitted.without_effects())
+        preds = []
+        for k, (train, _) in enumerate(folds):
+            model = option.model
+            resid = self.data.F - current.fold_preds[k]
+            for i, name in new.items():
+                e = start_effect(name, self.data, None, resid, s, weights=train)
+                model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
+            preds.append(self.fit(model, option.on, train)[1])
+        option.fold_preds = preds
+
+    def cross_validate(self, option: Option, folds) -> None:
+        """Refit `option` from its start (`option.model`) with each fold held out. Not
+        from its fit on all samples: a fit started at an optimum can stop at once (the
+        solver's tolerance test), leaving the held-out blocks predicted by a model that
+        was fitted on them."""
+        if not option.fold_preds:
+            option.fold_preds = [self.fit(option.model, option.on, train)[1]
+                                 for train, _ in folds]
+
+
+def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
+    """Set `option`'s held-out gain over `current` (share of the current model's held-out
+    SSE) and ``z``: the mean block gain over its standard error."""
+    diffs, total = [], 0.0
+    for k, idx in _blocks(folds):
+        r0 = current.fold_preds[k][idx] - F[idx]
+        r1 = option.fold_preds[k][idx] - F[idx]
+        diffs.append(float(r0 @ r0 - r1 @ r1))
+        total += float(r0 @ r0)
+    d = np.asarray(diffs)
+    se = np.std(d, ddof=1) / np.sqrt(d.size) if d.size > 1 else np.inf
+    option.gain = float(d.sum() / total) if total > 0 else 0.0
+    option.z = float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0)
+
+
+def held_out_sse(option: Option, folds, F: np.ndarray) -> float:
+    """The held-out SSE of `option` over all folds (N^2; every sample held out once)."""
+    return float(sum(np.sum((option.fold_preds[k] - F)[idx] ** 2) for k, idx in _blocks(folds)))
+
+
+@dataclasses.dataclass
+class Round:
+    """One round: every option fitted (`options`, best training fit first), the one added
+    (None when nothing qualified), and the current model's held-out SSE."""
+
+    options: list[Option]
+    added: Option | None
+    current: Option
+
+
+def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: DiagnosisRules,
+           base_options: Callable[[], list] = lambda: [], log=None) -> list[Round]:
+    """Forward selection from model `start` (plain) over effect names `candidates` and the
+    base models `base_options()` gives (``[(name, plain model)]``); see the module
+    docstring. Returns the rounds; the last round's ``current`` is the final model."""
+    log = log or (lambda *_: None)
+    data = fitter.data
+    names = [n for n in candidates if switchable(n)]
+    plain = _params.to_fit_representation(start)
+    slots = [_off(fx.EFFECTS[n].grid(data.t, data.x, data.v, data.F)[0]) for n in names]
+    superset = plain + tuple(slots)
+    log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
+    fitted, pred = fitter.fit(superset, frozenset())
+    current = Option(("base",), superset, frozenset(), fitted=fitted, pred=pred,
+                     result=fitter.last,
+                     sse=float(np.sum((pred - data.F) ** 2)))
+    rounds, switched = [], False
+    while len(rounds) < rules.max_added:
+        resid = data.F - current.pred
+        signals = _signals(data, current.fitted.without_effects())
+        options = []
+        for i, n in enumerate(names):
+            if i in current.on:
+                continue
+            eff = start_effect(n, data, None, resid, signals)
+            model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
+            model = eqx.tree_at(lambda m: m.base, model, plain)  # the starting base
+            options.append(Option((n,), model, current.on | {i}))
+        if not switched:
+            for bname, bmodel in base_options():
+                keep = tuple(current.fitted.effects)
+                options.append(Option((bname,), _params.to_fit_representation(bmodel)
+                                      + keep, current.on, base=True))
+        for o in options:
+            log(f"  refitting with {o.name} ...")
+            o.fitted, o.pred = fitter.fit(o.model, o.on)
+            o.result = fitter.last
+            o.sse = float(np.sum((o.pred - data.F) ** 2))
+            o.physical = "" if o.base else physical(o.fitted.effects[max(o.on - current.on)])
+        options.sort(key=lambda o: o.sse)
+        chosen = _cross_validate(fitter, current, options[:rules.tried], folds, rules, log)
+        if chosen is None and len(rounds) + 2 <= rules.max_added:
+            singles = [o for o in options[:rules.tried] if not o.base]
+            pairs = [_pair(a, b, current) for a, b in itertools.combinations(singles, 2)]
+            for o in pairs:
+                log(f"  refitting with {o.name} together ...")
+                o.fitted, o.pred = fitter.fit(o.model, o.on)
+                o.result = fitter.last
+                o.sse = float(np.sum((o.pred - data.F) ** 2))
+                o.physical = "; ".join(p for i in o.on - current.on
+                                       if (p := physical(o.fitted.effects[i])))
+            options += pairs
+            chosen = _cross_validate(fitter, current, pairs, folds, rules, log)
+        rounds.append(Round(options, chosen, current))
+        if chosen is None:
+            break
+        switched |= chosen.base
+        if chosen.base:
+            superset = chosen.fitted
+            plain = superset.without_effects()
+        current = chosen
+    return rounds
+
+
+def _pair(a: Option, b: Option, current: Option) -> Option:
+    """Options `a` and `b` (singles) switched on together, from their starts."""
+    (j,) = b.on - current.on
+    model = eqx.tree_at(lambda m: m.effects[j], a.model, b.model.effects[j])
+    return Option(a.names + b.names, model, a.on | b.on)
+
+
+def _cross_validate(fitter, current, options, folds, rules, log):
+    """Cross-validate `current` and `options`; the qualifying one of largest gain."""
+    fitter.cross_validate(current, folds)
+    for o in options:
+        log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
+        names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
+        if names and not o.base:
+            fitter.cross_validate_searched(o, current, folds, names)
+        else:
+            fitter.cross_validate(o, folds)
+        judge(o, current, folds, fitter.data.F)
+        log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
+            + (f" (not physical: {o.physical})" if o.physical else ""))
+    good = [o for o in options if o.z >= rules.z and not o.physical]
+    return max(good, key=lambda o: o.gain) if good else None

@@ -1,0 +1,149 @@
+"""The diagnosis's decision by full refits and blocked cross-validation (`fitting._select`,
+`fitting._diagnose_cv`, `fitting._rules`): its parts on small cases, and one whole
+diagnosis of a Tustin model on a short record (fast: a memoryless base model)."""
+
+import numpy as np
+import pytest
+
+import jaxfric
+from fitting import _select as S
+from fitting._diagnose_cv import diagnose_cv
+from fitting._rules import DiagnosisRules
+from jaxfric import effects as fx
+
+
+def test_time_block_folds_hold_out_every_sample_once_in_contiguous_blocks():
+    t = np.sort(np.random.default_rng(0).uniform(0, 10, 997))
+    folds = S.time_block_folds(t, 20, 4)
+    tests = np.stack([te for _, te in folds])
+    assert np.all(tests.sum(axis=0) == 1)  # every sample held out exactly once
+    for train, test in folds:
+        assert np.all(train + test == 1)
+    blocks = S._blocks(folds)
+    assert len(blocks) == 20
+    assert sorted(np.concatenate([idx for _, idx in blocks]).tolist()) == list(range(t.size))
+
+
+def test_folds_are_a_plain_argument_one_run_per_fold():
+    """Leave-one-run-out: one block per fold, judged the same way."""
+    n = 300
+    run = np.repeat([0, 1, 2], n // 3)
+    folds = [((run != k).astype(float), (run == k).astype(float)) for k in range(3)]
+    assert [k for k, _ in S._blocks(folds)] == [0, 1, 2]
+
+
+def test_judge_block_statistic():
+    rng = np.random.default_rng(1)
+    n = 2000
+    F = rng.standard_normal(n)
+    folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
+    cur = S.Option(("base",), None, frozenset())
+    cur.fold_preds = [np.zeros(n)] * 4
+    better = S.Option(("e",), None, frozenset())
+    better.fold_preds = [0.5 * F] * 4  # removes 75 % of the SSE in every block
+    S.judge(better, cur, folds, F)
+    assert better.gain == pytest.approx(0.75)
+    assert better.z > 10
+    same = S.Option(("noise",), None, frozenset())
+    same.fold_preds = [0.05 * rng.standard_normal(n)] * 4  # fits nothing
+    S.judge(same, cur, folds, F)
+    assert same.gain < 0 and same.z < 2
+
+
+def test_physical_ranges_come_from_field_metadata():
+    assert S.physical(fx.Inertia(mass=2.0)) == ""
+    assert "mass" in S.physical(fx.Inertia(mass=-0.1))
+    assert "c_drag" in S.physical(fx.QuadraticDrag(c_drag=-1.0))
+    assert "lag_gain" in S.physical(fx.FrictionLag(lag_gain=1.5, tau=0.1))
+    assert S.physical(fx.Offset(offset=-3.0)) == ""  # an offset may have either sign
+    assert S.switchable("inertia") and S.switchable("cogging")
+    assert not S.switchable("presliding")  # no linear parameter to switch it off
+
+
+def test_start_effect_finds_the_cogging_period_on_its_grid():
+    t = np.linspace(0, 20, 4000)
+    x = 4e-3 * np.sin(2 * np.pi * t / 10)
+    v = np.gradient(x, t)
+    F = 20 * np.tanh(v / 1e-3)
+    resid = 0.5 * np.sin(2 * np.pi * x / 1.3e-3) + 0.2 * np.cos(2 * np.pi * x / 1.3e-3)
+    data = S.Data(t, x, v, F)
+    base = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=20.0, Vs=1e-3, delta=2.0), sigma2=0.0)
+    e = S.start_effect("cogging", data, base, resid)
+    assert float(e.period) == pytest.approx(1.3e-3, rel=0.03)
+    assert float(np.hypot(e.cog_sin, e.cog_cos)) == pytest.approx(np.hypot(0.5, 0.2), rel=0.1)
+
+
+def test_start_effect_sees_only_the_training_samples():
+    """A fold's grid start is picked on its training samples: a cogging of another period
+    in the held-out half does not move it."""
+    t = np.linspace(0, 20, 4000)
+    x = 4e-3 * np.sin(2 * np.pi * t / 10)
+    v = np.gradient(x, t)
+    data = S.Data(t, x, v, 20 * np.tanh(v / 1e-3))
+    train = (t < 10).astype(float)
+    resid = np.where(train > 0, 0.5 * np.sin(2 * np.pi * x / 1.3e-3),
+                     2.0 * np.sin(2 * np.pi * x / 0.5e-3))
+    base = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=20.0, Vs=1e-3, delta=2.0), sigma2=0.0)
+    e = S.start_effect("cogging", data, base, resid, weights=train)
+    assert float(e.period) == pytest.approx(1.3e-3, rel=0.03)
+    assert float(S.start_effect("cogging", data, base, resid).period) == pytest.approx(
+        0.5e-3, rel=0.03)
+
+
+def test_rules_are_checked():
+    with pytest.raises(ValueError):
+        DiagnosisRules(folds=1)
+    with pytest.raises(ValueError):
+        DiagnosisRules(z=0.0)
+    with pytest.raises(dataclasses_frozen()):
+        DiagnosisRules().z = 3.0
+
+
+def dataclasses_frozen():
+    import dataclasses
+
+    return dataclasses.FrozenInstanceError
+
+
+def _tustin_record(mass: float, seed: int = 0, duration: float = 20.0):
+    """A Tustin truth on point-to-point moves, 5 ms sampling, with a mass `mass`."""
+    from jaxfric import trajectories
+
+    t = np.arange(0.0, duration, 5e-3)
+    x = trajectories.point_to_point(t, np.random.default_rng(seed), accel_time=0.05)
+    v = np.gradient(x, t)
+    a = np.gradient(v, t)
+    truth = jaxfric.Tustin(jaxfric.Stribeck(Fs=24.0, Fc=20.0, Vs=3e-3, delta=2.0),
+                           sigma2=60.0)
+    F = np.asarray(jaxfric.simulate(truth, t, x, v)) + mass * a
+    F = F + 0.1 * np.random.default_rng(100 + seed).standard_normal(t.size)
+    start = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=18.0, Vs=5e-3, delta=2.0),
+                           sigma2=40.0)
+    return start, t, x, F, v, a
+
+
+def test_diagnose_cv_quick_case():
+    """The whole path on a tiny case: one candidate, one round, two folds."""
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    d = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
+                    rules=rules)
+    assert d.final.added == ["inertia"]
+    assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
+    assert d.candidates[0].t_stat >= rules.z
+    assert d.to_json()["after"]["added"] == ["inertia"]
+
+
+@pytest.mark.slow
+def test_diagnose_cv_finds_a_mass_and_adds_nothing_to_its_clean_twin():
+    start, t, x, F, v, a = _tustin_record(mass=4.0)
+    d = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
+                    model_name="tustin", base_models=())
+    assert d.final.added == ["inertia"]
+    assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
+    assert d.final.rmse_holdout < 0.5 * d.baseline.rmse_holdout
+    assert d.candidates[0].name == "inertia" and d.candidates[0].significant
+    start, t, x, F, v, a = _tustin_record(mass=0.0)
+    clean = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
+                        base_models=())
+    assert clean.final.added == []

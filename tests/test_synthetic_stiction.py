@@ -1,0 +1,34 @@
+"""`jaxfric.synthetic`'s foreign truth with true stiction, its motion families and its
+jittered clock (the data of the diagnosis's slow tests and bench)."""
+
+import numpy as np
+import pytest
+
+from jaxfric import synthetic, trajectories
+
+
+def test_stiction_breaks_away_above_the_sliding_curve_and_drops():
+    t = np.arange(0.0, 4.0, 2e-4)
+    x = trajectories.point_to_point(t, np.random.default_rng(0))
+    v = np.gradient(x, t)
+    v = np.where(np.abs(v) < 1e-7, 0.0, v)
+    f = synthetic.stiction_force(t, x, v)
+    assert np.max(np.abs(f)) > 26.0  # the breakaway (27 N), above the curve's 24 N peak
+    jumps = np.abs(np.diff(f))
+    assert jumps.max() > 2.0  # the slip: a drop to the sliding curve in one step
+    sliding = np.abs(v) > 5e-3
+    level = np.abs(f[sliding]) - 60.0 * np.abs(v[sliding])
+    assert np.all(level < 24.01) and np.all(level > 19.99)  # on the Stribeck curve
+
+
+def test_measurement_takes_a_motion_family_and_a_jittered_clock():
+    t, _, _ = synthetic.measurement("stiction", (), dt=2e-3, motion="jerk_limited",
+                                    duration=4.0, jitter=0.1)
+    assert t.size == 2000 and np.all(np.diff(t) > 0)
+    steps = np.diff(t)
+    # each sample up to 0.1 dt early or late: intervals of 0.8..1.2 dt
+    assert steps.min() == pytest.approx(1.6e-3) and steps.max() == pytest.approx(2.4e-3)
+    plain = synthetic.measurement("gms_power", (), dt=1e-2)
+    again = synthetic.measurement("gms_power", (), dt=1e-2, jitter=0.0)
+    for a, b in zip(plain, again):
+        np.testing.assert_array_equal(a, b)  # jitter 0 is the uniform clock, unchanged
