@@ -292,16 +292,17 @@ def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset
 
 
 def _costless(problem: _Problem, y0, y, leaves: list[int], data: Dataset, cost: float,
-              n_obs: int, tol: Tolerances) -> bool:
-    """Whether moving `leaves` back to their start (where `_hold` puts them) costs less than
-    `tol.decrease` noise variances: only then are they undetermined in fact. A large
-    standard error at a point the fit has not left yet (a bent start) is no proof, and
-    holding there would keep the fit from the data."""
+              n_obs: int) -> bool:
+    """Whether moving `leaves` back to their start (where `_hold` puts them) raises the sum
+    of squares by at most one noise variance (a chi-square change of 1: the start lies in
+    the fit's one-standard-error region, so the data cannot tell the two apart). A large
+    standard error at a point far from the start (a bent start the fit has left) is no
+    proof, and holding there would pull the fit away from the data."""
     coord = np.isin(problem.layout.coordinate_leaf(), leaves)
     back = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
     resid = np.asarray(_evaluate(problem, back, data)[0])
     s2 = 2.0 * cost / max(n_obs - np.size(y), 1)
-    return 0.5 * float(np.sum(resid**2)) - cost <= tol.decrease * s2
+    return 0.5 * float(np.sum(resid**2)) - cost <= 0.5 * s2
 
 
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
@@ -351,8 +352,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             more = undetermined_leaves(out.jac, out.resid, problem.layout, n_obs,
                                        tol.undetermined, set(pinned.tolist())
                                        ) if 2 * cost / n_obs <= 1 - MIN_R2 else []
-            if steps >= max_steps or not _costless(problem, y0, y, more, data, cost, n_obs,
-                                                   tol):
+            if steps >= max_steps or not _costless(problem, y0, y, more, data, cost, n_obs):
                 unheld = more
             if not more or unheld:
                 break
