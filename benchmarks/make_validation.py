@@ -359,6 +359,9 @@ def render(root: Path = ROOT) -> str:
         else:
             try:
                 body = (fn or section_real)(*data)
+                # A caveat a JSON carries (e.g. code it measured that has changed since).
+                body += [f"**Note:** {x['note']}" for x in data
+                         if isinstance(x, dict) and x.get("note")]
             except (KeyError, TypeError, ValueError) as e:
                 # A JSON whose layout this page does not know: say so, do not guess.
                 body = [f"Cannot read `{'`, `'.join(SOURCES[k] for k in keys)}`: "
