@@ -29,8 +29,9 @@ Per sample (tests/reference.py spells out the same rules with Python lists):
    a full stack drops its bottom entry (counted as overflow).
 3. Loop closure cascade (Rules 2-3): while the top entry is closable and
    ``(x - x_e)/(S - s_e) >= theta_e``, pop two entries (one onto the zero state).
-4. ``F_h = h_e + Pi(xi)*(S - s_e)``; ``F_l = a*F_l - gamma(xi)*(S - S_start)`` with the exact
-   decay ``a = exp(-C*dt/|S|)`` while moving, ``F_l`` reset to 0 at a reversal (Rule 1).
+4. ``F_h = h_e + Pi(xi)*(S - s_e)``; ``F_l = a*F_l - gamma(xi)*(S - S_{n-1})`` with the
+   exact decay ``a = exp(-C*dt/|S|)`` while moving, ``F_l`` reset to 0 at a reversal (Rule 1)
+   and no charge on a direction-change step (a reversal or the first motion).
 5. ``F = F_h + F_l + sigma2*v``.
 
 The paper shape uses the analytic derivative: with ``F(z) = a*exp(b*beta^alpha) -
@@ -260,15 +261,12 @@ def _simulate_one(t, x, v, use_v, p, size, out):
         f_h = sh[top] + pi_n * den
 
         # ---- friction lag: exact decay over a step with constant S ----
-        if moving and d != last_d:
-            start = d * Fs  # s jumped across v = 0 at xi = 0: start on the new side
-        else:
-            start = s_prev
         if reversal:
             lag = 0.0
         elif moving and s != 0.0:
             lag *= math.exp(-C * dt / abs(s))
-        lag = lag - gamma_n * (s - start)
+        if not (moving and d != last_d):  # a direction-change step charges nothing
+            lag = lag - gamma_n * (s - s_prev)
 
         out[i] = f_h + lag + sigma2 * vn
         s_prev = s

@@ -244,9 +244,9 @@ def two_state(
             values in SI, with s_st = Fs) or "power" (keys l1, n).
         K: stack capacity (>= 3).
 
-    Note: an earlier version of the spec started the step after a reversal from the OLD
-    side's rest value; with gamma taken at the end of the step that leaked the +-Fs jump
-    of s into F_l (-5.5 N at v = 1 mm/s, dt = 10 ms). The spec now starts from the new side.
+    The friction lag charges ``gamma(xi_n) * (S_n - S_{n-1})`` per step, except on a
+    direction-change step (a reversal or the first motion), which charges nothing (spec
+    section 4, step 4).
 
     Returns:
         dict with float64 arrays ``F`` (total force), ``Fh``, ``Fl`` [N], ``S`` (effective
@@ -328,19 +328,19 @@ def two_state(
         Fh_n = top["h"] + pi_n * (S_n - top["s"])
 
         # --- 4. friction lag, exact decay over a step with constant S ---
-        # S at the start of the step. After a reversal or at the first motion, s jumps
-        # across v = 0 at xi = 0 where gamma = 0: the step starts from the rest limit on
-        # the NEW side (spec section 4, step 4).
-        if moving[n] and D_prev != int(d[n]):
-            S_prev = int(d[n]) * Fs
-        else:
-            S_prev = S_prev_sample
         Fl_start = 0.0 if reversal else Fl_prev_sample  # Rule 1: F_l(t_k+) = 0
         if moving[n]:
             a_n = math.exp(-C * float(dts[n]) / abs(S_n))
         else:
             a_n = 1.0  # no attraction during a dwell: every element sticks
-        Fl_n = a_n * Fl_start - gamma_n * (S_n - S_prev)
+        if moving[n] and D_prev != int(d[n]):
+            # A direction-change step (reversal or first motion) charges nothing: S drops
+            # from the new side's rest value at xi = 0, where gamma = 0, before the step's
+            # travel (spec section 4, step 4).
+            charge = 0.0
+        else:
+            charge = gamma_n * (S_n - S_prev_sample)
+        Fl_n = a_n * Fl_start - charge
 
         # --- 5. total force ---
         F[n] = Fh_n + Fl_n + sigma2 * float(vs[n])

@@ -251,10 +251,10 @@ class TwoState(AbstractFrictionModel):
         moving = d != 0
         decay = jnp.exp(-self.C * safe_div(dt, jnp.abs(s)))
         a = jnp.where(reversal, 0.0, jnp.where(moving, decay, 1.0))
-        # After a reversal or at the first motion, s jumps across v = 0 at xi = 0, where
-        # gamma = 0: the step starts from the rest value on the new side.
-        start = jnp.where(moving & (d != prev_last_d), self.stribeck.rest(d), s_prev)
-        b = -gamma * (s - start)
+        # A direction-change step (a reversal or the first motion) charges nothing: s
+        # leaves the rest value on the new side at xi = 0, where gamma = 0, and the step's
+        # travel happens at the speed of its sample, after s has dropped.
+        b = jnp.where(moving & (d != prev_last_d), 0.0, -gamma * (s - s_prev))
         return a, b
 
     # ---- per-sample API ---------------------------------------------------------------

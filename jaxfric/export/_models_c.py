@@ -99,7 +99,7 @@ static void jf_close(jaxfric_state *s, double x, double S)
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
     v = jf_consistent(v, x - s->x_prev, dt);
-    double d = jf_sign(v), last_d, S, den, xi, p, kappa, gamma, f_h, a, start;
+    double d = jf_sign(v), last_d, S, den, xi, p, kappa, gamma, f_h, a;
     int moving = d != 0.0, top;
     int reversal = moving && s->last_d != 0.0 && d != s->last_d;
     last_d = moving ? d : s->last_d;
@@ -114,8 +114,8 @@ static double jf_model(jaxfric_state *s, double x, double v, double dt)
     f_h = s->mh[top] + p * den;
     /* F_l: exact decay between events, reset at reversals (TwoState._lag_coefficients) */
     a = reversal ? 0.0 : (moving ? exp(-JF_C * jf_div(dt, fabs(S))) : 1.0);
-    start = (moving && d != s->last_d) ? JF_FS * d : s->s_prev;
-    s->lag = a * s->lag - gamma * (S - start);
+    /* a direction-change step (reversal, first motion) charges nothing: gamma = 0 there */
+    s->lag = a * s->lag - ((moving && d != s->last_d) ? 0.0 : gamma * (S - s->s_prev));
     s->last_d = last_d;
     s->s_prev = S;
     return f_h + s->lag + JF_SIGMA2 * v;
