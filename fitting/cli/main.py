@@ -55,8 +55,13 @@ header has no units) is fitted the same way and reported in rad, rad/s and N m.
 A file of several joints (q1..qN, dq1..dqN, tau1..tauN, or a joint column) is fitted
 joint by joint, with a table of all joints at the end.
 
+Several files are runs of one machine (rates, units and columns may differ): one model is
+fitted to all of them; --validate FILE... gives the error on runs not fitted, per run and
+regime.
+
 examples:
   jaxfric fit run1.csv --model two-state
+  jaxfric fit run1.csv run2.csv --validate run3.csv --json fit.json
   jaxfric fit tribometer.csv --model two-state --flip-force --json fit.json --plot fit.png
   jaxfric fit data.csv --model gms --elements 10 --units x=mm,F=mN
   jaxfric fit joint.csv --units x=deg,v=deg/s,F=Nm
@@ -90,12 +95,14 @@ examples:
 """
 
 COMPARE_HELP = """\
-Fit several models to one measurement and print their errors overall and per regime
-(presliding, reversal windows, sliding by speed, accelerating, rest).
+Fit several models to one measurement (or each to several runs at once) and print their
+errors overall and per regime (presliding, reversal windows, sliding by speed,
+accelerating, rest).
 
 examples:
   jaxfric compare run1.csv
   jaxfric compare run1.csv --models two-state,gms,tustin --elements 10 --json cmp.json
+  jaxfric compare run1.csv run2.csv --validate run3.csv
 """
 
 
