@@ -355,7 +355,10 @@ def run_compare(args) -> int:
     m = load_for_cli(args, log)
     results = compare_measurement(args, kinds, m, log)
     if args.json:
-        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
+        known = ({"known_force": {"column": args.known_force, "unit": m.unit("F")}}
+                 if getattr(args, "known_force", None) else {})
+        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results,
+                               **known})
         log(f"JSON written to {args.json}")
     return 0
 

@@ -156,8 +156,25 @@ def fit_runs(args, kind: str, fitted: list[Run], log, start=None, weights=None):
             for i, r in enumerate(fitted)]
     t0 = time.perf_counter()
     with about(", ".join(r.name for r in fitted)):
-        res = fit_datasets(start, data, max_steps=args.max_steps)
+        res = fit_datasets(start, data, max_steps=args.max_steps,
+                           progress=_progress(log, data, first.m.unit("F"))
+                           if not args.quiet and sys.stdout.isatty() else None)
     return res, time.perf_counter() - t0
+
+
+def _progress(log, data: list[Dataset], unit: str):
+    """A progress callback printing the steps and the RMSE over all runs after each
+    compiled chunk of steps (the residuals are in units of the force's standard deviation
+    over all runs, `fitting._problem`)."""
+    force = np.concatenate([np.asarray(d.F) - (0 if d.known is None else d.known)
+                            for d in data])
+    scale = (float(np.std(force)) or 1.0) / np.sqrt(force.size)
+
+    def show(p):
+        log(f"  step {p.steps:4d}   RMSE {scale * (2.0 * p.cost) ** 0.5:.4g} {unit}   "
+            f"({p.seconds:.0f} s)")
+
+    return show
 
 
 def _table(rows: list[dict], names: list[str], unit: str) -> list[str]:
@@ -268,9 +285,11 @@ def run_compare_runs(args, kinds: list[str], log) -> int:
     if any(r["fitted_on"] != "all samples" for r in results.values()):
         log("(tustin fitted to the steady sliding samples of each run; errors over all)")
     if args.json:
+        known = ({"known_force": {"column": args.known_force, "unit": m0.unit("F")}}
+                 if args.known_force else {})
         write_json(args.json, {"files": [r.name for r in fitted],
                                "validate": [r.name for r in held], "kind": m0.kind,
                                "regime_speed_bands": _speed_bands(fitted),
-                               "models": results})
+                               "models": results, **known})
         log(f"JSON written to {args.json}")
     return 0

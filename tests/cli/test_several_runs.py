@@ -194,3 +194,26 @@ def test_emps_validation_error_of_the_diagnosed_model(run, tmp_path):
     # the model as diagnosed: its in-sample error, and a larger one on the other run
     np.testing.assert_allclose(saved["runs"][0]["rmse"], in_sample, rtol=1e-9)
     assert saved["validation"][0]["rmse"] > 2 * in_sample
+
+
+def test_one_file_with_a_known_force(files, run, tmp_path):
+    with_known, without = tmp_path / "k.json", tmp_path / "n.json"
+    for out, extra in ((with_known, ["--known-force", "pulse"]), (without, [])):
+        rc, _, err = run("fit", files[2], "--model", "tustin", *extra, "--json", out,
+                         "--quiet")
+        assert rc == 0, err
+    k, n = (json.loads(p.read_text()) for p in (with_known, without))
+    assert k["known_force"] == {"column": "pulse", "unit": "N"} and "known_force" not in n
+    assert "file" in k and "runs" not in k  # the one-file JSON
+    assert k["rmse"] < 0.8 * n["rmse"]
+
+
+def test_what_several_runs_refuse_is_one_line(files, run, tmp_path):
+    joints = _write(tmp_path / "joints.csv", "t,q1,q2,tau1,tau2",
+                    [np.arange(50) * 1e-2] + [np.sin(np.arange(50) * 0.1)] * 2
+                    + [np.cos(np.arange(50) * 0.1)] * 2)
+    for argv, words in ((("fit", files[0], joints), "holds several joints"),
+                        (("fit", files[0], files[1], "--plot", tmp_path / "p.png"),
+                         "--plot takes one file")):
+        rc, _, err = run(*argv)
+        assert rc == 2 and words in err and len(err.strip().splitlines()) == 1, err
