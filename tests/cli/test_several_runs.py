@@ -217,3 +217,14 @@ def test_what_several_runs_refuse_is_one_line(files, run, tmp_path):
                          "--plot takes one file")):
         rc, _, err = run(*argv)
         assert rc == 2 and words in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_one_file_with_validation(files, run, tmp_path):
+    out = tmp_path / "fit.json"
+    rc, text, err = run("fit", files[0], "--validate", files[1], "--model", "tustin",
+                        "--json", out)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    assert [r["file"] for r in saved["runs"]] == [str(files[0])]
+    assert [r["file"] for r in saved["validation"]] == [str(files[1])]
+    assert "b.csv" in text and "validation" in text
