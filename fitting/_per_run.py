@@ -90,7 +90,8 @@ def shifted(datasets):
 def run_model(model, k: int | None):
     """The plain model of run `k` of a model fitted with per-run parameters (``None``: the
     mean over the runs, the model for a run not fitted); any other model unchanged."""
-    if not isinstance(model, WithEffects):
+    if not isinstance(model, WithEffects) or not any(
+            isinstance(e, _PerRunEffect) for e in model.effects):
         return model
 
     def plain(e):
