@@ -11,7 +11,8 @@ properties pytree beside the model, never inside it.
   weights=None, reparameterize=True, tol=None) -> FitResult`: one experiment; it stops
   when the Gauss-Newton decrease left is a small fraction of the noise variance and holds
   parameters the data do not determine (`Tolerances`, `fitting._stopping`).
-- `fit_datasets(model, datasets, ...) -> FitResult`: several experiments (`Dataset`) at once.
+- `fit_datasets(model, datasets, ...) -> FitResult`: several experiments (`Dataset`) at once;
+  `run_model(model, i)`: the plain model of run i of a fit with per-run parameters.
 - `fit_batch(model, t, x, F, v=None, *, weights=None, ...) -> FitResult`: B independent fits
   in one compiled call (arrays ``(B, n)``, or ragged lists padded with weight-0 samples;
   one dataset after the other, or vmapped with ``vectorize=True``); each dataset gets its
@@ -118,6 +119,7 @@ from ._params import (
     natural_params as natural_params,
     to_fit_representation as to_fit_representation,
 )
+from ._per_run import run_model as run_model
 from ._regimes import regime_errors as regime_errors, regimes as regimes
 from ._result import FitResult as FitResult
 from ._rules import DiagnosisRules as DiagnosisRules

@@ -41,11 +41,13 @@ def absurd_sample(name: str, a: np.ndarray, w: np.ndarray | None = None
 
 
 #: One experiment for a fit: `jaxfric.data.Measurement` (the same class), constructed as
-#: ``Dataset(t, x, F, v=None, weights=None, load=None, a=None)`` in SI (s, m, N, m/s;
+#: ``Dataset(t, x, F, v=None, weights=None, load=None, a=None, known=None)`` in SI (s, m,
+#: N, m/s;
 #: weights >= 0, 0 drops a sample, ``None`` for ones; ``v`` ``None`` for the backward
 #: difference of ``x``, as `jaxfric.simulate`; ``load`` the transmitted load, N, for
 #: `jaxfric.effects.LoadFriction`; ``a`` the acceleration, m/s^2, for
-#: `jaxfric.effects.Inertia`, ``None`` for the backward difference of ``v``).
+#: `jaxfric.effects.Inertia`, ``None`` for the backward difference of ``v``; ``known`` a
+#: known force component in ``F``, N, subtracted before fitting, not fitted).
 Dataset = Measurement
 
 
@@ -71,7 +73,7 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
     if n < 2:
         raise ValueError(f"{where}need at least 2 samples, got {n}")
     out = {"t": t}
-    for name in ("x", "F", "v", "weights", "load", "a"):
+    for name in ("x", "F", "v", "weights", "load", "a", "known"):
         a = getattr(data, name)
         if a is None:
             out[name] = None
@@ -81,7 +83,8 @@ def check_dataset(data: Dataset, where: str = "", check_force: bool = True) -> D
             raise ValueError(f"{where}{name} has shape {arr.shape}, t has {t.shape}")
         out[name] = arr
     w = out["weights"] if out["weights"] is not None else np.ones_like(t)
-    for name in ("t", "x", "v", "weights", "load", "a") + (("F",) if check_force else ()):
+    for name in ("t", "x", "v", "weights", "load", "a", "known") + (
+            ("F",) if check_force else ()):
         a = out[name]
         if name == "F":
             a = np.where(w > 0, a, 0.0)

@@ -42,6 +42,7 @@ import jaxfric
 
 from ._chunked import solve_chunked
 from ._data import absurd_sample, check_dataset, Dataset, stack
+from ._per_run import has_per_run, run_model, shifted, with_runs
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
 from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solver, MIN_R2
@@ -107,15 +108,35 @@ def fit_datasets(
     Each `Dataset` is simulated from the model's zero state at its own first sample. Arguments
     are as for `fit`; `prediction` and `residuals` of the result are tuples, one array per
     dataset. The force scale of the residuals and the metrics (RMSE, NRMSE, R2) are over
-    all datasets together.
+    all datasets together. A dataset's `known` force is subtracted from its `F` before the
+    fit (`prediction` is the model's force alone; `residuals` is ``prediction + known - F``).
+
+    Parameters declared ``per_run`` on an effect (`jaxfric._fields.param`: the offset of
+    `jaxfric.effects.Offset`) get one value per dataset when there are two or more
+    (`fitting._per_run`): ``params`` names them ``offset_1 .. offset_D`` in dataset order,
+    `fitting.run_model` gives the plain model of one dataset (and, with ``None``, the mean
+    model for data not fitted); every other parameter is shared.
     """
     if len(datasets) == 0:
         raise ValueError("need at least one dataset")
-    checked = [check_dataset(d, where=f"dataset {i}: ") for i, d in enumerate(datasets)]
+    checked = [_without_known(check_dataset(d, where=f"dataset {i}: "))
+               for i, d in enumerate(datasets)]
+    per_run = len(checked) > 1 and has_per_run(model)
+    if per_run and props is not None:
+        raise ValueError("props= with per-run parameters: set free= instead")
+    model = with_runs(model, len(checked))
+    solved = shifted(checked) if per_run else checked
     problem, y0 = _problem(model, props, free, reparameterize)
-    result, _ = _fit_stacked(problem, y0, checked, stack(checked), solver, max_steps, tol,
+    result, _ = _fit_stacked(problem, y0, solved, stack(solved), solver, max_steps, tol,
                              progress)
     return _as_simulated(result, checked)
+
+
+def _without_known(d: Dataset) -> Dataset:
+    """`d` (checked) with its known force subtracted from `F` (samples of weight 0 stay 0)."""
+    if d.known is None:
+        return d
+    return dataclasses.replace(d, F=np.where(d.weights > 0, d.F - d.known, 0.0), known=None)
 
 
 def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
@@ -126,8 +147,9 @@ def _as_simulated(result: FitResult, checked: Sequence[Dataset]) -> FitResult:
     with values that are not finite (a diverged fit) keeps the solve's prediction."""
     if not _finite(result.fit_model):
         return result
-    pred = tuple(jaxfric.simulate(result.fit_model, d.t, d.x, d.v, load=d.load, a=d.a)
-                 for d in checked)
+    pred = tuple(jaxfric.simulate(run_model(result.fit_model, i), d.t, d.x, d.v, load=d.load,
+                                  a=d.a)
+                 for i, d in enumerate(checked))
     resid = tuple(jnp.asarray(np.asarray(p) - np.asarray(d.F)) for p, d in zip(pred, checked))
     return eqx.tree_at(lambda r: (r.prediction, r.residuals), result, (pred, resid))
 
@@ -183,6 +205,7 @@ def fit(
     progress=None,
     load=None,
     a=None,
+    known=None,
 ) -> FitResult:
     """Least-squares fit of any jaxfric model to one experiment.
 
@@ -218,11 +241,14 @@ def fit(
     - `a`: the acceleration (m/s^2) that `jaxfric.effects.Inertia` reads (``None``: the
       backward difference of `v`, as `jaxfric.simulate`); for measured data a zero-phase
       estimate, `estimate_derivatives`, or a measured column.
+    - `known`: a known force component in `F` (N: an external force applied on purpose, a
+      model part already identified), subtracted from `F` and not fitted; `prediction`
+      is then the model's force alone.
 
     **Returns:** a `FitResult`. Failures to converge are reported in ``result``/``status``
     (``throw=False``); shape and value problems of the inputs raise `ValueError`.
     """
-    data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load, a=a)
+    data = Dataset(t=t, x=x, F=F, v=v, weights=weights, load=load, a=a, known=known)
     out = fit_datasets(model, [data], free=free, props=props, solver=solver,
                        max_steps=max_steps, reparameterize=reparameterize, tol=tol,
                        progress=progress)

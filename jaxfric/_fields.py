@@ -29,7 +29,7 @@ _MISSING = dataclasses.MISSING
 
 def param(unit: str, *, constraint: Any = None, group: str | None = None,
           role: str | None = None, default: Any = _MISSING, linear: bool = False,
-          physical: tuple[float, float] | None = None) -> Any:
+          physical: tuple[float, float] | None = None, per_run: bool = False) -> Any:
     """A parameter field (an `equinox.field` with the `as_param` converter): `unit` is its
     SI unit as text (``"N"``, ``"m/s"``, ``"N s/m"``, ``"-"`` for none), `constraint` one of
     the module docstring's, `group` a name that ``free=`` accepts for several parameters
@@ -38,9 +38,12 @@ def param(unit: str, *, constraint: Any = None, group: str | None = None,
     ``"lag"``: the friction lag). For an effect's parameters (`jaxfric.effects`), what a
     diagnosis needs: `linear` when the term is linear in it (0 switches the effect off),
     `physical` the ``(lo, hi)`` range a fitted value must fall in to be physical (a mass
-    is not negative), checked after the fit rather than imposed by a transform."""
+    is not negative), checked after the fit rather than imposed by a transform.
+    `per_run`: a nuisance parameter that belongs to one run rather than to the machine (a
+    sensor zero, a gravity-compensation offset): a fit to several runs
+    (`fitting.fit_datasets`) gives it one value per run and shares every other parameter."""
     metadata = {"unit": unit, "constraint": constraint, "group": group, "role": role,
-                "linear": linear, "physical": physical}
+                "linear": linear, "physical": physical, "per_run": per_run}
     if default is _MISSING:
         return eqx.field(converter=as_param, metadata=metadata)
     return eqx.field(converter=as_param, default=default, metadata=metadata)
@@ -54,6 +57,7 @@ class ParamInfo(NamedTuple):
     constraint: Any
     group: str | None
     role: str | None
+    per_run: bool = False
 
 
 def _key_name(key) -> str:
@@ -86,5 +90,5 @@ def parameter_info(model) -> list[ParamInfo]:
             owner) else {}
         meta = fields[name].metadata if name in fields else {}
         out.append(ParamInfo(name, meta.get("unit", "?"), meta.get("constraint"),
-                             meta.get("group"), meta.get("role")))
+                             meta.get("group"), meta.get("role"), meta.get("per_run", False)))
     return out

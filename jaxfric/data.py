@@ -93,6 +93,9 @@ class Measurement(eqx.Module):
     - `u` (N, or N m): drive force (friction plus inertia and offsets), or ``None``; `a`
       (m/s^2, or rad/s^2), `normal` (N) and `load` (the transmitted load: N, or N m on a
       rotary file; what `jaxfric.effects.LoadFriction` reads): ``None`` unless given.
+    - `known` (N, or N m): a known force component in the measured force (an external
+      force applied on purpose, a model part already identified), subtracted from `F`
+      (or `u`) by the fits and not fitted; ``None`` unless given (``load(..., known=)``).
     - `source`: where it came from (file name or ``"<arrays>"``); `notes`: what was
       converted or flipped while loading; `extra`: other columns by name.
     - `kind`: ``"linear"`` (a slide) or ``"rotary"`` (a joint or motor axis), from the
@@ -108,6 +111,7 @@ class Measurement(eqx.Module):
     a: Any = None
     normal: Any = None
     load: Any = None
+    known: Any = None
     source: str = eqx.field(static=True, default="<arrays>")
     notes: tuple[str, ...] = eqx.field(static=True, default=(), converter=tuple)
     extra: dict = eqx.field(default_factory=dict)
@@ -139,7 +143,7 @@ class Measurement(eqx.Module):
         return velocity(self.t, self.x, window_s)
 
     def __repr__(self) -> str:
-        cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal", "load")
+        cols = [c for c in ("t", "x", "F", "u", "v", "a", "normal", "load", "known")
                 if getattr(self, c) is not None]
         span = self.t[-1] - self.t[0]
         return (f"Measurement({self.source!r}, {self.kind}, {len(self)} samples, {span:.3g} s, "
@@ -251,6 +255,27 @@ def _to_si(source: str, columns: dict[str, np.ndarray], declared: dict[str, str]
     return notes
 
 
+def _known_to_si(source: str, columns: dict, declared: dict, kind: str, known: str
+                 ) -> list[str]:
+    """Convert the known-force column `known` in place to SI as a force (N, or N m)."""
+    if known not in columns:
+        raise DataError(f"{source}: no column {known!r} for the known force (columns: "
+                        f"{', '.join(columns)})")
+    if known in QUANTITY:
+        raise DataError(f"{source}: column {known!r} is a standard column ({QUANTITY[known]}), "
+                        "not a known force")
+    unit = declared.get(known)
+    if unit is None:
+        return [f"known force: column {known!r} in {_units.si_unit('F', kind)} (no unit "
+                "declared)"]
+    factor = _units.unit_factor("F", unit, kind)
+    if factor is None:
+        raise DataError(f"{source}: column {known!r}: unknown force unit {unit!r}")
+    columns[known] = columns[known] * factor
+    return [f"known force: column {known!r} converted from {unit} to "
+            f"{_units.si_unit('F', kind)}"]
+
+
 def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> Measurement:
     """`m` with its force flipped when asked; otherwise `m`, with a warning when its force
     looks recorded with the opposite sign to the friction convention."""
@@ -258,6 +283,8 @@ def _orient_force(m: Measurement, *, flip_force: bool, check_sign: bool) -> Meas
     if flip_force and m.force is not None:
         column = m.force_column
         flipped = {column: -getattr(m, column)}
+        if m.known is not None:
+            flipped["known"] = -m.known
         notes = (*m.notes, f"{column} multiplied by -1 (--flip-force)")
         return dataclasses.replace(m, **flipped, notes=notes)
     elif check_sign and m.force is not None:
@@ -282,6 +309,7 @@ def load(
     require_force: bool = True,
     check_sign: bool = True,
     kind: str | None = None,
+    known: str | None = None,
 ) -> Measurement:
     """Read, check and convert a measurement to SI.
 
@@ -296,6 +324,9 @@ def load(
       of motion, i.e. recorded with the opposite sign convention.
     - `kind`: ``"linear"`` or ``"rotary"`` for a file whose units do not tell (``None``:
       from the units, linear when there are none); a contradiction is an error.
+    - `known`: the name of a column holding a known force component (EMPS's ``pulse``):
+      read as a force (its unit converted as ``F``'s, N or N m; flipped with the force),
+      kept as `Measurement.known` and subtracted from the force by the fits.
 
     Undeclared units that look wrong (`jaxfric._plausible`: ms read as s, mm as m, mN as N,
     deg as rad, v in mm/s or rpm) give a `DataWarning` naming the likely unit.
@@ -303,7 +334,7 @@ def load(
     **Returns:** a `Measurement`. **Raises:** `DataError` with a one-line message.
     """
     return _load(_read(data), units=units, flip_force=flip_force, require_force=require_force,
-                 check_sign=check_sign, kind=kind)
+                 check_sign=check_sign, kind=kind, known=known)
 
 
 def load_joints(
@@ -351,7 +382,7 @@ def joint_layout(data) -> str | None:
 
 
 def _load(read, *, units, flip_force, require_force, check_sign, kind,
-          default_kind: str = LINEAR) -> Measurement:
+          default_kind: str = LINEAR, known: str | None = None) -> Measurement:
     source, parsed, columns, read_notes, where = read
     layout = _joints.joint_layout(columns)
     if layout is not None:
@@ -364,13 +395,16 @@ def _load(read, *, units, flip_force, require_force, check_sign, kind,
     declared = _declared(source, columns, header_unit, units)
     kind = _decide_kind(source, declared, kind, _units.ROTARY if robot else default_kind)
     notes = [*read_notes, *renamed, *_to_si(source, columns, declared, kind)]
+    if known is not None:
+        notes += _known_to_si(source, columns, declared, kind, known)
     _check(source, columns, require_force, kind, where)
     for message in _spike_warnings(source, columns, kind, where or _where(source)):
         warnings.warn(message, DataWarning, stacklevel=3)
     m = Measurement(
         **{k: columns.get(k) for k in ("t", "x", "F", "u", "v", "a", "normal", "load")},
+        known=None if known is None else columns[known],
         source=source,
-        extra={k: v for k, v in columns.items() if k not in QUANTITY},
+        extra={k: v for k, v in columns.items() if k not in QUANTITY and k != known},
         notes=notes,
         kind=kind,
     )

@@ -142,10 +142,12 @@ class Inertia(AbstractEffect):
 
 
 class Offset(AbstractEffect):
-    """A constant force (N): gravity on an inclined axis, a sensor zero."""
+    """A constant force (N): gravity on an inclined axis, a sensor zero. Fitted to several
+    runs, each run has its own (``per_run``): a sensor zero or a gravity compensation is
+    set again for every run."""
 
     name: ClassVar[str] = "offset"
-    offset: Array = param("N", default=0.0, linear=True)
+    offset: Array = param("N", default=0.0, linear=True, per_run=True)
 
     def term(self, s):
         return jnp.broadcast_to(self.offset, s.t.shape)

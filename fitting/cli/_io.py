@@ -126,12 +126,12 @@ def parse_units(specs) -> dict[str, str]:
 
 
 def load_for_cli(args, log):
-    """Load `args.file` with the CLI's unit and sign options; warnings become one line on
-    stderr (unless --quiet)."""
+    """Load `args.file` with the CLI's unit and sign options (and its ``--known-force``
+    column); warnings become one line on stderr (unless --quiet)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _data.DataWarning)
         m = _data.load(args.file, units=parse_units(args.units), flip_force=args.flip_force,
-                       kind=cli_kind(args))
+                       kind=cli_kind(args), known=getattr(args, "known_force", None))
     print_warnings(caught, args)
     for note in m.notes:
         log(f"note: {note}")

@@ -41,6 +41,7 @@ from ._signals import (
     velocity_words,
 )
 from .plots import plot_fit
+from .runs import run_compare_runs, run_fit_runs, several
 
 
 def _progress(log, scale: float, unit: str):
@@ -67,6 +68,12 @@ def _kind_of_command(args) -> str:
 def run_fit(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = _kind_of_command(args)
+    if several(args):
+        if args.plot:
+            raise _data.DataError("--plot takes one file (no --validate); plot a run with "
+                                  "'jaxfric simulate FILE --params FIT.json'")
+        start = model_from_json(args.params, kind)[0] if args.params else None
+        return run_fit_runs(args, kind, start, log)
     if _data.joint_layout(args.file):
         from .joints import fit_joints
 
@@ -77,6 +84,8 @@ def run_fit(args) -> int:
     if args.json:
         extra = {} if deadband is None else {"deadband": deadband}
         extra.update(_load_json(m))
+        if getattr(args, "known_force", None):
+            extra["known_force"] = {"column": args.known_force, "unit": m.unit("F")}
         write_json(args.json, {**result_json(kind, res, m), "velocity": velocity_words(m, args),
                                "derivatives": derivatives_json(m, args), **extra})
         log(f"JSON written to {args.json}")
@@ -88,7 +97,7 @@ def run_fit(args) -> int:
 
 def fit_measurement(args, kind: str, m, log):
     """Fit model `kind` to `m` with the command line's options, printing its table."""
-    if m.F is None:
+    if m.F is None and not args.params:
         raise _data.DataError(
             f"{m.source}: 'fit' needs the friction force F; this file has only the drive force "
             "u (inertia and offsets included): use 'jaxfric diagnose' or subtract them first"
@@ -100,18 +109,19 @@ def fit_measurement(args, kind: str, m, log):
         log(f"starting from {what}")
     else:
         with about(m.source):
-            start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
+            start = initial_model(kind, m.t, m.x, m.F if m.known is None else m.F - m.known,
+                                  v, n_elements=args.elements)
     log(f"fitting {kind}" + (f" ({args.elements} elements)" if kind == "gms" else "")
         + " with Levenberg-Marquardt (the first step includes compilation) ...")
     t0 = time.perf_counter()
     watched = not args.quiet and sys.stdout.isatty()
     # The residuals are in units of the force's standard deviation (`fitting._problem`).
     # (`_force_scale`: the standard deviation, or 1 for a constant force.)
-    scale = (float(np.std(m.F)) or 1.0) / np.sqrt(m.F.size)
+    scale = (float(np.std(m.force)) or 1.0) / np.sqrt(m.force.size)
     with about(m.source):
-        res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps,
+        res = _fit(start, m.t, m.x, m.force, v, max_steps=args.max_steps,
                    progress=_progress(log, scale, m.unit("F")) if watched else None,
-                   load=_load_of(m, start), a=a)
+                   load=_load_of(m, start), a=a, known=m.known)
     elapsed = time.perf_counter() - t0
     # The verdict first: a status name alone ("nonlinear_max_steps_reached") does not say
     # to everyone that the values are not a converged fit.
@@ -336,6 +346,8 @@ def run_compare(args) -> int:
     if None in kinds:
         raise _data.DataError(f"--models {args.models!r}: choose from two-state, gms, lugre, "
                               "tustin")
+    if several(args):
+        return run_compare_runs(args, kinds, log)
     if _data.joint_layout(args.file):
         from .joints import compare_joints
 
@@ -343,7 +355,10 @@ def run_compare(args) -> int:
     m = load_for_cli(args, log)
     results = compare_measurement(args, kinds, m, log)
     if args.json:
-        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results})
+        known = ({"known_force": {"column": args.known_force, "unit": m.unit("F")}}
+                 if getattr(args, "known_force", None) else {})
+        write_json(args.json, {"file": str(m.source), "kind": m.kind, "models": results,
+                               **known})
         log(f"JSON written to {args.json}")
     return 0
 
@@ -359,16 +374,18 @@ def compare_measurement(args, kinds, m, log) -> dict:
     extra = {} if deadband is None else {"deadband": deadband}
     v, a, _ = identification_derivatives(m, args, log)
     masks = regimes(m.t, m.x, v)
+    target = m.F if m.known is None else m.F - m.known  # the force the models explain
     rows, results = {}, {}
     for kind in kinds:
         log(f"fitting {kind} ...")
         with about(m.source):
-            start = initial_model(kind, m.t, m.x, m.F, v, n_elements=args.elements)
+            start = initial_model(kind, m.t, m.x, target, v, n_elements=args.elements)
             # A static model cannot represent presliding: fitted on the steady sliding only.
-            w = steady_sliding_weights(m.t, m.x, m.F, v) if kind == "tustin" else None
-            res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a, weights=w)
+            w = steady_sliding_weights(m.t, m.x, target, v) if kind == "tustin" else None
+            res = _fit(start, m.t, m.x, m.F, v, max_steps=args.max_steps, a=a, weights=w,
+                       known=m.known)
         # Every sample's error (a sample of weight 0 has no residual in the result).
-        errs = regime_errors(np.asarray(res.prediction) - m.F, masks)
+        errs = regime_errors(np.asarray(res.prediction) - target, masks)
         rows[kind] = errs = _units.speak_json(errs, m.kind)  # regime names in its units
         on = "all samples" if w is None or w.all() else f"{int(w.sum())} steady sliding samples"
         results[kind] = {**result_json(kind, res, m), "regimes": errs, "fitted_on": on, **extra}

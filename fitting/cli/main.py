@@ -55,8 +55,13 @@ header has no units) is fitted the same way and reported in rad, rad/s and N m.
 A file of several joints (q1..qN, dq1..dqN, tau1..tauN, or a joint column) is fitted
 joint by joint, with a table of all joints at the end.
 
+Several files are runs of one machine (rates, units and columns may differ): one model is
+fitted to all of them; --validate FILE... gives the error on runs not fitted, per run and
+regime.
+
 examples:
   jaxfric fit run1.csv --model two-state
+  jaxfric fit run1.csv run2.csv --validate run3.csv --json fit.json
   jaxfric fit tribometer.csv --model two-state --flip-force --json fit.json --plot fit.png
   jaxfric fit data.csv --model gms --elements 10 --units x=mm,F=mN
   jaxfric fit joint.csv --units x=deg,v=deg/s,F=Nm
@@ -90,12 +95,14 @@ examples:
 """
 
 COMPARE_HELP = """\
-Fit several models to one measurement and print their errors overall and per regime
-(presliding, reversal windows, sliding by speed, accelerating, rest).
+Fit several models to one measurement (or each to several runs at once) and print their
+errors overall and per regime (presliding, reversal windows, sliding by speed,
+accelerating, rest).
 
 examples:
   jaxfric compare run1.csv
   jaxfric compare run1.csv --models two-state,gms,tustin --elements 10 --json cmp.json
+  jaxfric compare run1.csv run2.csv --validate run3.csv
 """
 
 
@@ -123,8 +130,24 @@ def _fit(args) -> int:
     return commands.run_fit(args)
 
 
-def _add_data_options(p) -> None:
-    p.add_argument("file", metavar="FILE", help="measurement: .csv (header row) or .npz")
+def _add_data_options(p, files: str = "one") -> None:
+    """The file and its reading options. `files`: ``"one"`` file, ``"runs"`` (several
+    files fitted with one model, ``--validate``, ``--known-force``) or ``"list"`` (several
+    files accepted by the parser; the command says how many it takes)."""
+    if files == "one":
+        p.add_argument("file", metavar="FILE", help="measurement: .csv (header row) or .npz")
+    else:
+        p.add_argument("file", metavar="FILE", nargs="+",
+                       help="measurement: .csv (header row) or .npz"
+                            + ("; several files are runs of one machine, fitted with one "
+                               "model" if files == "runs" else ""))
+    if files == "runs":
+        p.add_argument("--validate", metavar="FILE", nargs="+",
+                       help="runs not used for fitting: their error per run and regime is "
+                            "printed and saved (give it after the files)")
+        p.add_argument("--known-force", metavar="COLUMN",
+                       help="a column of known force (N, or N m; e.g. EMPS's pulse) in the "
+                            "measured force: subtracted, not fitted")
     p.add_argument("--units", action="append", metavar="COL=UNIT",
                    help="units of columns without one in the header, e.g. x=mm,F=mN")
     p.add_argument("--flip-force", action="store_true",
@@ -189,7 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=FIT_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _add_data_options(p)
+    _add_data_options(p, files="runs")
     p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model to fit (default: the model of --params, else two-state); "
                         "with --params it must be that model")
@@ -231,7 +254,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=COMPARE_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _add_data_options(p)
+    _add_data_options(p, files="runs")
     p.add_argument("--models", default="two-state,gms,lugre,tustin",
                    help="comma-separated (default: %(default)s)")
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
@@ -246,7 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=DIAGNOSE_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _add_data_options(p)
+    _add_data_options(p, files="list")
     p.add_argument("--model", default="two-state",
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model to start from (default: %(default)s)")
@@ -288,6 +311,7 @@ def main(argv=None) -> int:
         from ._io import check_options
 
         check_options(args)
+        _several_files(args)
         _check_outputs(args)
         return args.func(args)
     except DataError as e:
@@ -318,10 +342,10 @@ _FOLDER_FILES = {
 #: The input files of each command: (what, attribute).
 _INPUTS = {
     "demo": (),
-    "fit": (("FILE", "file"), ("--params", "params")),
+    "fit": (("FILE", "files"), ("--validate", "validate"), ("--params", "params")),
     "simulate": (("FILE", "file"), ("--params", "params")),
-    "compare": (("FILE", "file"),),
-    "diagnose": (("FILE", "file"),),
+    "compare": (("FILE", "files"), ("--validate", "validate")),
+    "diagnose": (("FILE", "files"),),
     "export": (("RESULT.json", "result"),),
 }
 
@@ -337,6 +361,23 @@ def _check_outputs(args) -> None:
         if path:
             (check_file if kind == "file" else check_folder)(path, option)
             outputs.append((option, path, () if kind == "file" else _FOLDER_FILES[attr]))
-    inputs = [(what, getattr(args, attr, None)) for what, attr in _INPUTS[args.command]]
+    inputs = []
+    for what, attr in _INPUTS[args.command]:
+        value = getattr(args, attr, None)
+        inputs += [(what, p) for p in value] if isinstance(value, list) else [(what, value)]
     check_clashes(inputs, outputs)
+
+
+def _several_files(args) -> None:
+    """``args.files``: the list of FILE arguments (``args.file`` is the first, what the
+    one-file code reads). `diagnose` takes one file."""
+    if not isinstance(getattr(args, "file", None), list):
+        return
+    args.files = args.file
+    args.file = args.files[0]
+    if args.command == "diagnose" and len(args.files) > 1:
+        from jaxfric.data import DataError
+
+        raise DataError(f"diagnose takes one file now ({len(args.files)} given); fit one "
+                        "model to several runs with 'jaxfric fit FILE... --validate FILE...'")
 

@@ -1,0 +1,230 @@
+"""``jaxfric fit``/``compare`` with several runs, ``--validate`` and ``--known-force``
+(issue 38): files that differ in rate, units and columns fit to the parameters of a Python
+`fitting.fit_datasets`; the validation errors are those of a separate ``simulate`` of the
+saved model; per-run offsets; every input is guarded against being overwritten."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fitting
+import jaxfric
+from fitting.cli.main import main
+from jaxfric import effects, examples, paper
+
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+TRUTH = paper.tustin()
+
+
+def _motion(seed: int, dt: float):
+    return examples.diagnosis_motion(dt=dt, seed=seed)
+
+
+def _write(path: Path, header: str, columns) -> Path:
+    np.savetxt(path, np.column_stack(columns), delimiter=",", header=header, comments="",
+               fmt="%.17g")
+    return path
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Three runs of one Tustin stage: SI at 10 ms; ms/mm/mN at 20 ms; SI at 15 ms with a
+    velocity column and a known pulse (mN) added to the force (the run to validate on)."""
+    folder = tmp_path_factory.mktemp("runs")
+    out = []
+    for seed, dt in ((0, 1e-2), (1, 2e-2), (2, 1.5e-2)):
+        t, x = _motion(seed, dt)
+        F = np.asarray(jaxfric.simulate(TRUTH, t, x))
+        F = F + 0.02 * np.random.default_rng(seed).normal(size=t.size)
+        if seed == 0:
+            out.append(_write(folder / "a.csv", "t,x,F", [t, x, F]))
+        elif seed == 1:
+            out.append(_write(folder / "b.csv", "t[ms],x[mm],F[mN]", [1e3 * t, 1e3 * x, 1e3 * F]))
+        else:
+            v = np.asarray(jaxfric.motion.velocity(t, x))
+            pulse = np.where((t > 30) & (t < 33), 2.0, 0.0)  # N, written in mN
+            out.append(_write(folder / "c.csv", "t,x,v,F,pulse[mN]",
+                              [t, x, v, F + pulse, 1e3 * pulse]))
+    return out
+
+
+@pytest.fixture
+def run(capsys):
+    def _run(*argv):
+        rc = main([str(a) for a in argv])
+        out, err = capsys.readouterr()
+        return rc, out, err
+    return _run
+
+
+@pytest.fixture(scope="module")
+def fitted(files, tmp_path_factory):
+    out = tmp_path_factory.mktemp("out") / "fit.json"
+    a, b, c = files
+    assert main([str(s) for s in ("fit", a, b, "--validate", c, "--model", "tustin",
+                                  "--known-force", "pulse", "--json", out, "--quiet")]) == 0
+    return json.loads(out.read_text()), out
+
+
+def _python_datasets(files):
+    runs = []
+    for path in files:
+        m = jaxfric.data.load(path)
+        v, a = fitting.estimate_derivatives(m.t, m.x)  # what the CLI does by default
+        runs.append(fitting.Dataset(t=m.t, x=m.x, F=m.F, v=v, a=a))
+    return runs
+
+
+def test_several_files_fit_as_python_fit_datasets(files, fitted):
+    saved, _ = fitted
+    runs = _python_datasets(files[:2])
+    start = fitting.initial_model("tustin", runs[0].t, runs[0].x, runs[0].F, runs[0].v)
+    res = fitting.fit_datasets(start, runs, max_steps=200)
+    assert saved["files"] == [str(f) for f in files[:2]]
+    assert saved["samples"] == sum(r.t.size for r in runs)
+    # The same fit, to the solver's stopping rule: two runs of this test have differed in
+    # Fc by 1.5e-4 relative (0.007 of its standard error, one step more), not in bits.
+    for name, value in res.params.items():
+        err = res.stderr[name]
+        tol = 0.05 * float(err) if np.isfinite(err) and err > 0 else 1e-6 * abs(float(value))
+        assert abs(saved["params"][name] - float(value)) <= tol, name
+    np.testing.assert_allclose(saved["rmse"], float(res.rmse), rtol=1e-6)
+    for row, r in zip(saved["runs"], res.residuals):
+        np.testing.assert_allclose(row["rmse"], np.sqrt(np.mean(np.asarray(r) ** 2)),
+                                   rtol=1e-6)
+
+
+def test_validation_error_is_a_separate_simulate_of_the_saved_model(files, fitted, run,
+                                                                  tmp_path):
+    saved, path = fitted
+    (val,) = saved["validation"]
+    assert val["file"] == str(files[2]) and saved["known_force"]["column"] == "pulse"
+    sim = tmp_path / "sim.csv"
+    rc, _, err = run("simulate", files[2], "--params", path, "--out", sim, "--quiet")
+    assert rc == 0, err
+    model = np.loadtxt(sim, delimiter=",", skiprows=1)[:, 3]
+    m = jaxfric.data.load(files[2], known="pulse")
+    resid = model + m.known - m.F
+    np.testing.assert_allclose(val["rmse"], np.sqrt(np.mean(resid**2)), rtol=1e-9)
+    masks = fitting.regimes(m.t, m.x, m.v, speed_bands=saved["regime_speed_bands"])
+    for name, mask in masks.items():
+        if mask.any():
+            np.testing.assert_allclose(val["regimes"][name]["rmse"],
+                                       np.sqrt(np.mean(resid[mask] ** 2)), rtol=1e-9)
+    # the pulse (2 N for 3 s) is subtracted, not counted as an error
+    assert np.sqrt(np.mean((model - m.F) ** 2)) > 1.5 * val["rmse"]
+
+
+def test_per_run_offsets_through_the_command_line(files, run, tmp_path):
+    folder = tmp_path
+    paths = []
+    for i, off in enumerate((0.4, -0.1)):
+        m = jaxfric.data.load(files[i])
+        F = np.asarray(jaxfric.simulate(TRUTH + effects.Offset(offset=off), m.t, m.x))
+        F = F + 0.02 * np.random.default_rng(10 + i).normal(size=F.size)
+        v = np.asarray(jaxfric.motion.velocity(m.t, m.x))  # the velocity simulated with
+        paths.append(_write(folder / f"off{i}.csv", "t,x,v,F", [m.t, m.x, v, F]))
+    start = folder / "start.json"
+    jaxfric.save_model(TRUTH + effects.Offset(), start)
+    out = folder / "fit.json"
+    rc, text, err = run("fit", *paths, "--params", start, "--json", out)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    got = [r["params"]["offset"] for r in saved["runs"]]
+    np.testing.assert_allclose(got, [0.4, -0.1], atol=5e-3)
+    assert "offset_1" in saved["params"] and "per-run parameters" in text
+    mean = jaxfric.load_model(saved["fitted_model"])  # for a run not fitted: the mean
+    np.testing.assert_allclose(float(mean.effects[0].offset), np.mean(got), rtol=1e-12)
+    for r in saved["runs"]:
+        assert float(jaxfric.load_model(r["fitted_model"]).effects[0].offset) == (
+            r["params"]["offset"])
+
+
+def test_compare_several_runs_with_validation(files, run, tmp_path):
+    out = tmp_path / "cmp.json"
+    rc, text, err = run("compare", files[0], files[1], "--validate", files[2],
+                        "--known-force", "pulse", "--models", "tustin,lugre", "--json", out)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    assert set(saved["models"]) == {"tustin", "lugre"}
+    for res in saved["models"].values():
+        assert [r["role"] for r in res["runs"] + res["validation"]] == [
+            "fitted", "fitted", "validation"]
+        assert res["validation"][0]["rmse"] > 0
+    assert "validation" in text and "RMSE per run and regime" in text
+
+
+def test_diagnose_takes_one_file(files, run):
+    rc, _, err = run("diagnose", files[0], files[1])
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "diagnose takes one file" in lines[0]
+
+
+@pytest.mark.parametrize("which", [1, 2])
+def test_outputs_never_overwrite_a_run_or_a_validation_file(files, run, which):
+    before = {p: Path(p).read_bytes() for p in files}
+    rc, _, err = run("fit", files[0], files[1], "--validate", files[2], "--json", files[which])
+    assert rc == 2 and "would overwrite the input" in err
+    rc, _, err = run("compare", files[0], files[1], "--validate", files[2], "--json",
+                     files[which])
+    assert rc == 2 and "would overwrite the input" in err
+    assert all(Path(p).read_bytes() == b for p, b in before.items())
+
+
+def test_a_missing_known_force_column_everywhere_is_one_line(files, run):
+    rc, _, err = run("fit", files[0], "--known-force", "push", "--model", "tustin")
+    assert rc == 2 and "no column 'push'" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.skipif(not (DATA / "emps_validation.csv").exists(),
+                    reason="../shared/data is absent")
+def test_emps_validation_error_of_the_diagnosed_model(run, tmp_path):
+    diag = Path(__file__).resolve().parents[2] / "docs" / "figures" / "emps_diagnosis.json"
+    out = tmp_path / "emps.json"
+    rc, _, err = run("fit", DATA / "emps_estimation.csv", "--params", diag, "--validate",
+                     DATA / "emps_validation.csv", "--max-steps", "0", "--json", out,
+                     "--quiet")
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    in_sample = json.loads(diag.read_text())["after"]["rmse"]
+    # the model as diagnosed: its in-sample error, and a larger one on the other run
+    np.testing.assert_allclose(saved["runs"][0]["rmse"], in_sample, rtol=1e-9)
+    assert saved["validation"][0]["rmse"] > 2 * in_sample
+
+
+def test_one_file_with_a_known_force(files, run, tmp_path):
+    with_known, without = tmp_path / "k.json", tmp_path / "n.json"
+    for out, extra in ((with_known, ["--known-force", "pulse"]), (without, [])):
+        rc, _, err = run("fit", files[2], "--model", "tustin", *extra, "--json", out,
+                         "--quiet")
+        assert rc == 0, err
+    k, n = (json.loads(p.read_text()) for p in (with_known, without))
+    assert k["known_force"] == {"column": "pulse", "unit": "N"} and "known_force" not in n
+    assert "file" in k and "runs" not in k  # the one-file JSON
+    assert k["rmse"] < 0.8 * n["rmse"]
+
+
+def test_what_several_runs_refuse_is_one_line(files, run, tmp_path):
+    joints = _write(tmp_path / "joints.csv", "t,q1,q2,tau1,tau2",
+                    [np.arange(50) * 1e-2] + [np.sin(np.arange(50) * 0.1)] * 2
+                    + [np.cos(np.arange(50) * 0.1)] * 2)
+    for argv, words in ((("fit", files[0], joints), "holds several joints"),
+                        (("fit", files[0], files[1], "--plot", tmp_path / "p.png"),
+                         "--plot takes one file")):
+        rc, _, err = run(*argv)
+        assert rc == 2 and words in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_one_file_with_validation(files, run, tmp_path):
+    out = tmp_path / "fit.json"
+    rc, text, err = run("fit", files[0], "--validate", files[1], "--model", "tustin",
+                        "--json", out)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    assert [r["file"] for r in saved["runs"]] == [str(files[0])]
+    assert [r["file"] for r in saved["validation"]] == [str(files[1])]
+    assert "b.csv" in text and "validation" in text
