@@ -358,6 +358,7 @@ def _note(kept, new) -> str | None:
     if not kept:
         return None
     when = sorted({c.get("measured_utc", "an earlier run") for c in new})
+    when = when[:1] if len(when) == 1 else [f"{when[0]} to {when[-1]}"]
     names = ", ".join(f"{m}/{mo}/{n:g}" for m, mo, n in
                       sorted((c["model"], c["motion"], c["n"]) for c in new))
     return (f"Re-measured at {', '.join(when)} UTC (python benchmarks/fit_speed.py --update "
