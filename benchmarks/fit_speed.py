@@ -358,12 +358,11 @@ def _note(kept, new) -> str | None:
     if not kept:
         return None
     when = sorted({c.get("measured_utc", "an earlier run") for c in new})
-    when = when[:1] if len(when) == 1 else [f"{when[0]} to {when[-1]}"]
-    names = ", ".join(f"{m}/{mo}/{n:g}" for m, mo, n in
-                      sorted((c["model"], c["motion"], c["n"]) for c in new))
-    return (f"Re-measured at {', '.join(when)} UTC (python benchmarks/fit_speed.py --update "
-            f"...): {names}. The other {len(kept)} cells come from an earlier full run "
-            f"(their measured_utc, where given) and were not re-run with the current code.")
+    when = when[0] if len(when) == 1 else f"{when[0]} to {when[-1]}"
+    models = ", ".join(sorted({c["model"] for c in new}))
+    return (f"{len(new)} cells ({models}) re-measured at {when} UTC with --update; the "
+            f"other {len(kept)} come from an earlier full run, not re-run with the current "
+            "code.")
 
 
 def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
