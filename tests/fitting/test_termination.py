@@ -115,6 +115,8 @@ def test_chunk_budget_is_fixed():
 
 #: Run in a process pinned to one CPU (`test_the_fit_does_not_depend_on_the_machines_speed`).
 _TWO_CLOCKS = """
+import os, sys
+os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
 import equinox as eqx, jax, numpy as np
 import fitting, jaxfric
 from fitting import _chunked
@@ -150,8 +152,8 @@ def test_the_fit_does_not_depend_on_the_machines_speed():
     import sys
 
     cpu = min(os.sched_getaffinity(0))
-    out = subprocess.run([sys.executable, "-c", _TWO_CLOCKS], capture_output=True, text=True,
-                         preexec_fn=lambda: os.sched_setaffinity(0, {cpu}), timeout=600)
+    out = subprocess.run([sys.executable, "-c", _TWO_CLOCKS, str(cpu)], capture_output=True,
+                         text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     fast, slow = out.stdout.split()[-4:-2], out.stdout.split()[-2:]
     assert fast == slow
