@@ -37,6 +37,11 @@ Targets (issue 36): <= 40 steps everywhere; for the two-state model at 1e5 sampl
     python benchmarks/fit_speed.py [--quick] [--sizes 10000 100000] [--models ...]
                                    [--motions ...] [--json OUT]
 
+``--update`` re-measures only the cells asked for (``--sizes``, ``--models``, ``--motions``)
+and replaces them in the existing JSON, keeping its other cells: each cell carries the UTC
+time it was measured (``measured_utc``), and the JSON's ``note`` says which cells come from
+which run (the page docs/validation.md prints it).
+
 ``--quick`` fits 2000 samples of the two-state model on the mixed motion with both solvers
 cut short (8 steps, 10 evaluations: a smoke test of the script for
 tests/project/test_benchmark_scripts.py, not a measurement). Writes benchmarks/fit_speed.json
@@ -301,10 +306,13 @@ def main(argv=None) -> int:
     ap.add_argument("--max-steps", type=int, default=256)
     ap.add_argument("--json", metavar="OUT",
                     default=str(Path(__file__).with_name("fit_speed.json")))
+    ap.add_argument("--update", action="store_true",
+                    help="replace only the cells measured now in the existing JSON")
     args = ap.parse_args(argv)
     sizes = args.sizes or ([2000] if args.quick else [10_000, 100_000])
     models, motions = ((["two-state"], ["mixed"]) if args.quick
                        else (args.models, args.motions))
+    kept = _kept_cells(args.json, sizes, models, motions) if args.update else []
 
     def log(msg):
         print(msg, flush=True)
@@ -320,17 +328,46 @@ def main(argv=None) -> int:
     for model in models:
         for n in sizes:
             for motion in motions:
-                cells.append(bench_cell(motion, model, n, numba_compile, max_steps, log,
-                                        max_nfev))
+                cell = bench_cell(motion, model, n, numba_compile, max_steps, log, max_nfev)
+                cell["measured_utc"] = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
+                cells.append(cell)
                 # Written after every cell: a long run interrupted keeps what it measured.
-                write(args, factors, numba_compile, cells, partial=True)
+                write(args, factors, numba_compile, kept, cells, partial=True)
     print(report(cells, numba_compile))
-    write(args, factors, numba_compile, cells, partial=False)
+    write(args, factors, numba_compile, kept, cells, partial=False)
     print(f"\nwrote {args.json}")
     return 0
 
 
-def write(args, factors, numba_compile, cells, partial: bool) -> None:
+def _key(cell) -> tuple:
+    return cell["motion"], cell["model"], cell["n"]
+
+
+def _kept_cells(path, sizes, models, motions) -> list:
+    """The cells of the JSON at `path` that this ``--update`` run does not re-measure."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    old = json.loads(path.read_text()).get("cells", [])
+    return [c for c in old if not (c["n"] in sizes and c["model"] in models
+                                   and c["motion"] in motions)]
+
+
+def _note(kept, new) -> str | None:
+    """Which cells come from which run, when they come from several (``--update``)."""
+    if not kept:
+        return None
+    when = sorted({c.get("measured_utc", "an earlier run") for c in new})
+    when = when[0] if len(when) == 1 else f"{when[0]} to {when[-1]}"
+    models = ", ".join(sorted({c["model"] for c in new}))
+    return (f"{len(new)} cells ({models}) re-measured at {when} UTC with --update; the "
+            f"other {len(kept)} come from an earlier full run, not re-run with the current "
+            "code.")
+
+
+def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
+    cells = sorted(kept + new, key=lambda c: (list(MODELS).index(c["model"]), c["n"],
+                                              list(MOTIONS).index(c["motion"])))
     every = goals(cells)
     rows = [c for c in cells if c["model"] == "two-state" and c["motion"] == "mixed"]
     result = {
@@ -344,6 +381,9 @@ def write(args, factors, numba_compile, cells, partial: bool) -> None:
         "summary": {"goals": len(every), "met": sum(g["met"] for g in every),
                     "max_steps_jaxfric": max(c["jaxfric"]["steps"] for c in cells)},
     }
+    note = _note(kept, new)
+    if note:
+        result["note"] = note
     Path(args.json).write_text(json.dumps(result, indent=1))
 
 

@@ -95,12 +95,17 @@ def _within_steps(kind: str, fits) -> None:
     assert not slow, "\n".join(slow)
 
 
-# Two-state fits from today's `initial_model` converge to the noise but some take more
-# than 40 steps (measured: 52 for seed 0, whose start's presliding curve is far off: the
-# cost falls from 0.051 to 0.014 between steps 8 and 40); a better start is issue 36
-# item 2. Strict: the mark must go when the starts improve.
+# Two-state fits from `initial_model` converge to the noise but some take more than 40
+# steps. Measured (seeds 0-2: 85, 18, 56 steps): on these sine strokes fewer than 3 speed
+# bins slide steadily, so the start's curve comes from force levels (seed 0: Fs 19.0 N for
+# 24.3, sigma2 0 for 90 N s/m) and its presliding range is chosen to make up for it (l1 1.9
+# for 7.1 um/N); the fit then still gains 31 noise variances between steps 40 and 72,
+# along the shape's valley (quartic ~ l1, correlation 0.999). Seed 2 gains 0.2 noise
+# variances after step 40, while the Gauss-Newton model predicts more (0.67 at its end),
+# so it ends by the stall rule (8 steps that gain nothing), at step 56. Strict: the mark must go
+# when the starts (a curve from sliding that is not steady) or the valley steps improve.
 _TWO_STATE_STEPS = pytest.mark.xfail(
-    strict=True, reason="two-state starts from initial_model: up to 52 steps (seed 0)")
+    strict=True, reason="two-state starts from initial_model: up to 85 steps (seed 0)")
 KINDS = ["two-state", "lugre", "tustin"]
 STEP_KINDS = [pytest.param("two-state", marks=_TWO_STATE_STEPS), "lugre", "tustin"]
 FEW, MANY = tuple(range(3)), tuple(range(3, 23))

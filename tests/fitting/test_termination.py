@@ -113,18 +113,50 @@ def test_chunk_budget_is_fixed():
     assert _chunked._next_budget(250, 256) == 6  # never past max_steps
 
 
-def test_the_fit_does_not_depend_on_the_machines_speed(problem, monkeypatch):
+#: Run in a process pinned to one CPU (`test_the_fit_does_not_depend_on_the_machines_speed`).
+_TWO_CLOCKS = """
+import os, sys
+os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
+import equinox as eqx, jax, numpy as np
+import fitting, jaxfric
+from fitting import _chunked
+from jaxfric import paper
+t = np.arange(0.0, 10.0, 1e-3)
+x = 1e-3 * (1 - np.cos(2 * np.pi * t / 2.5)) + 20e-6 * np.sin(2 * np.pi * 7 * t)
+true = paper.two_state()
+F = np.asarray(jaxfric.simulate(true, t, x)) + 0.05 * np.random.default_rng(3).normal(size=t.size)
+leaves, tree = jax.tree.flatten(eqx.filter(true, eqx.is_inexact_array))
+start = eqx.combine(jax.tree.unflatten(tree, [a * (1.15 if k % 2 == 0 else 0.85)
+                                              for k, a in enumerate(leaves)]),
+                    eqx.filter(true, eqx.is_inexact_array, inverse=True))
+fast = fitting.fit(start, t, x, F, max_steps=256)
+clock = iter(np.arange(0.0, 1e9, 10.0))
+_chunked.time.perf_counter = lambda: float(next(clock))
+slow = fitting.fit(start, t, x, F, max_steps=256)
+for r in (fast, slow):
+    values = np.concatenate([np.ravel(np.asarray(a)) for a in
+                             jax.tree.leaves(eqx.filter(r.model, eqx.is_inexact_array))])
+    print(int(r.num_steps), values.tobytes().hex())
+"""
+
+
+def test_the_fit_does_not_depend_on_the_machines_speed():
     """Chunk boundaries (where the scaling is renewed) must not follow the clock: the same
-    fit on a machine that seems 1000 times slower lands on the same parameters."""
-    t, x, F, start = problem
-    fast = fitting.fit(start, t, x, F, max_steps=256)
-    clock = iter(np.arange(0.0, 1e9, 10.0))
-    monkeypatch.setattr(_chunked.time, "perf_counter", lambda: float(next(clock)))
-    slow = fitting.fit(start, t, x, F, max_steps=256)
-    assert int(slow.num_steps) == int(fast.num_steps)
-    for a, b in zip(jax.tree.leaves(eqx.filter(fast.model, eqx.is_inexact_array)),
-                    jax.tree.leaves(eqx.filter(slow.model, eqx.is_inexact_array))):
-        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    fit on a machine that seems 1000 times slower lands on the same parameters, bit for
+    bit. In a process pinned to one CPU: on more than one thread XLA's CPU runtime does
+    not return bit-identical results from one compiled program on identical inputs
+    (jax-ml/jax issue 39741; docs/fitting.md, Reproducibility), which made the two fits
+    of this test differ now and then (14 and 16 steps) whatever the clock."""
+    import os
+    import subprocess
+    import sys
+
+    cpu = min(os.sched_getaffinity(0))
+    out = subprocess.run([sys.executable, "-c", _TWO_CLOCKS, str(cpu)], capture_output=True,
+                         text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    fast, slow = out.stdout.split()[-4:-2], out.stdout.split()[-2:]
+    assert fast == slow
 
 
 def test_the_statistical_rule_stops_a_creeping_fit(problem):
