@@ -82,9 +82,12 @@ def test_known_force_is_subtracted_not_fitted():
     F = F + 0.02 * np.random.default_rng(3).normal(size=t.size)
     with_known = fitting.fit(truth, t, x, F, known=pulse)
     subtracted = fitting.fit(truth, t, x, F - pulse)
-    for name in with_known.params:
-        np.testing.assert_allclose(float(with_known.params[name]),
-                                   float(subtracted.params[name]), rtol=1e-9)
+    # The same fit: equal to a small fraction of each standard error (not bit for bit: XLA's
+    # CPU runtime is not bit-reproducible on more than one thread, docs/fitting.md).
+    for name, value in with_known.params.items():
+        err = float(with_known.stderr[name])
+        tol = 0.05 * err if np.isfinite(err) and err > 0 else 1e-6 * abs(float(value))
+        assert abs(float(value) - float(subtracted.params[name])) <= tol, name
     np.testing.assert_allclose(np.asarray(with_known.prediction),
                                np.asarray(jaxfric.simulate(with_known.fit_model, t, x)))
     np.testing.assert_allclose(np.asarray(with_known.residuals),
