@@ -211,13 +211,13 @@ def jax_models() -> dict:
     return models
 
 
-#: The two-state model with its event pass in pure JAX (``JAXFRIC_EVENT_KERNEL=jax``), timed
+#: The two-state model on its pure-JAX path (``JAXFRIC_EVENT_KERNEL=jax``), timed
 #: beside the default (the compiled kernel on the CPU, `jaxfric._kernel`).
 PURE = "TwoState (pure JAX)"
 
 
 def _pure(f, *args, **kwargs):
-    """`f` traced and run with the pure-JAX event pass (`simulate` keys its compilation
+    """`f` traced and run on the pure-JAX path (`simulate` keys its compilation
     cache on the choice, so both stay compiled side by side)."""
     with _kernel.forced("jax"):
         return f(*args, **kwargs)
@@ -409,12 +409,12 @@ def bench_lm(n, repeats, log) -> dict:
 
 
 def bench_lm_both(n, repeats, log) -> tuple[dict, dict]:
-    """Section 5 with the default event pass (the kernel on the CPU), then with the pure-JAX
+    """Section 5 with the default (the compiled kernels on the CPU), then with the pure-JAX
     one. The fits' programs do not key their caches on the choice: each is traced afresh."""
     jax.clear_caches()
     default = bench_lm(n, repeats, log)
     jax.clear_caches()
-    log("  (pure-JAX event pass)")
+    log("  (pure-JAX path)")
     pure = _pure(bench_lm, n, repeats, log)
     jax.clear_caches()
     return default, pure

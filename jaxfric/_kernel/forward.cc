@@ -309,8 +309,8 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
     } else {
       a = T(1.0);
     }
-    const T start = (moving && d != prev_last_d) ? T(d * Fs) : s_prev;
-    const T b = -gamma * (s - start);
+    // A direction-change step (a reversal or the first motion) charges nothing.
+    const T b = (moving && d != prev_last_d) ? T(0.0) : T(-gamma * (s - s_prev));
     lag = a * lag + b;
     store(r.hyst, r.jac_hyst, j, f_h);
     store(r.lag, r.jac_lag, j, lag);
