@@ -12,7 +12,9 @@ from jaxtyping import ArrayLike
 
 from . import _kernel
 from ._compile import jit
+from ._kernel import forward as _forward_kernel
 from ._models._base import AbstractFrictionModel, SimResult
+from ._models.two_state import TwoState
 from .motion import auto_deadband, make_motion, play, played_velocity, reversal_bound
 
 
@@ -68,14 +70,20 @@ def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
     return model._simulate(make_motion(t, x, v, max_reversals, load, a))
 
 
-def _uses_reversal_bound(model) -> bool:
+def _uses_reversal_bound(model, *arrays) -> bool:
     """Whether `model`, or a model inside it (e.g. under added effects), evaluates terms on
-    a list of reversals (`AbstractFrictionModel.uses_reversal_bound`)."""
+    a list of reversals (`AbstractFrictionModel.uses_reversal_bound`), on a motion of
+    `arrays` (t, x, v; none: any motion): a `TwoState` that runs in the compiled forward
+    kernel (`jaxfric._kernel.forward`) needs no list."""
 
     def uses(m):
         return getattr(m, "uses_reversal_bound", False) is True
 
-    return any(uses(m) for m in jax.tree.leaves(model, is_leaf=uses))
+    def needs(m):
+        return uses(m) and not (arrays and type(m) is TwoState and _forward_kernel.supported(
+            m, *arrays, scalar_params=False))
+
+    return any(needs(m) for m in jax.tree.leaves(model, is_leaf=uses))
 
 
 def _checked_motion(t, x, v):
@@ -144,8 +152,8 @@ def apply_deadband(x, v, deadband, t=None):
 def _max_reversals(model, t, x, v, max_reversals: int | None) -> int | None:
     """The static size of the reversal list: the user's, or counted on concrete data for
     the models that use one (`_uses_reversal_bound`)."""
-    if max_reversals is None and _uses_reversal_bound(model) and not any(
-            isinstance(a, jax.core.Tracer) for a in (t, x, v)):
+    if max_reversals is None and not any(isinstance(a, jax.core.Tracer) for a in (t, x, v)) \
+            and _uses_reversal_bound(model, *(a for a in (t, x, v) if a is not None)):
         max_reversals = reversal_bound(t, x, v)
     if max_reversals is not None:
         max_reversals = operator.index(max_reversals)

@@ -30,6 +30,7 @@
 
 #include "dual.h"
 #include "rows.h"
+#include "vmath.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
@@ -227,7 +228,19 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
   double last_d = 0.0;
   T s_prev(0.0), lag(0.0);
   int64_t reversals = 0;
+  // With T = double the Stribeck magnitudes and the lag's decays come from the vectorised
+  // pre-pass (vmath.h), a block of samples at a time.
+  constexpr bool pre = std::is_same_v<T, double>;
+  constexpr int64_t kBlock = 256;
+  double mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
+  double stribeck[5] = {value(Fs), value(Fc), value(Vs), value(delta), value(C)};
   for (int64_t j = 0; j < n; ++j) {
+    const int64_t i = j % kBlock;
+    if constexpr (pre) {
+      if (i == 0) {
+        jaxfric::stribeck_block(r.t, r.v, j, std::min(kBlock, n - j), stribeck, mag, decay);
+      }
+    }
     const double xj = r.x[j], vj = r.v[j];
     const double x_prev = j > 0 ? r.x[j - 1] : r.x[0];
     const double dt = j > 0 ? r.t[j] - r.t[j - 1] : 0.0;
@@ -238,8 +251,12 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
     // `Stribeck.effective`
     T s;
     if (vj != 0.0) {
-      const T u = safe_div(fabs(vj), Vs);
-      s = d * (Fc + dfs * exp(-spow(u, delta)));
+      if constexpr (pre) {
+        s = d * mag[i];
+      } else {
+        const T u = safe_div(fabs(vj), Vs);
+        s = d * (Fc + dfs * exp(-spow(u, delta)));
+      }
     } else {
       s = last_d * Fs;
     }
@@ -305,7 +322,11 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
     if (reversal) {
       a = T(0.0);
     } else if (moving) {
-      a = exp(-C * safe_div(dt, fabs(s)));
+      if constexpr (pre) {
+        a = decay[i];
+      } else {
+        a = exp(-C * safe_div(dt, fabs(s)));
+      }
     } else {
       a = T(1.0);
     }

@@ -47,18 +47,22 @@ def _leaves(model):
             *(getattr(sh, k) for k in names)]
 
 
-def supported(model, motion) -> bool:
-    """Whether `model` (a plain `TwoState`: the caller checks) on `motion` runs in the
-    forward kernel (module docstring); decided when a program is traced."""
+def supported(model, *arrays, scalar_params: bool = True) -> bool:
+    """Whether `model` (a plain `TwoState`: the caller checks) on a motion of `arrays` (its
+    t, x, v) runs in the forward kernel (module docstring); decided when a program is
+    traced. ``scalar_params=False`` allows parameters with batch axes (a batched model
+    before its ``vmap``)."""
     if type(model.stribeck) is not Stribeck or type(model.shape) not in SHAPES:
         return False
     leaves = _leaves(model)
-    if any(jnp.result_type(a) != jnp.float64 or jnp.ndim(a) != 0 for a in leaves):
+    if any(jnp.result_type(a) != jnp.float64 for a in leaves):
+        return False
+    if scalar_params and any(jnp.ndim(a) != 0 for a in leaves):
         return False
     # every array of the model is one of the packed parameters
     if len(jax.tree.leaves(eqx.filter(model, eqx.is_array))) != len(leaves):
         return False
-    return _kernel.use_kernel(motion.t, motion.x, motion.v)
+    return _kernel.use_kernel(*arrays)
 
 
 def pack(model) -> jax.Array:

@@ -291,7 +291,7 @@ class TwoState(AbstractFrictionModel):
 
     def _simulate(self, motion: Motion) -> SimResult:
         motion = motion.consistent()
-        if type(self) is TwoState and _forward_kernel.supported(self, motion):
+        if type(self) is TwoState and _forward_kernel.supported(self, motion.t, motion.x, motion.v):
             force, parts, overflow = _forward_kernel.simulate(self, motion)  # compiled, CPU
             return SimResult(force=force, parts=parts, overflow=overflow)
         return self._simulate_jax(motion)

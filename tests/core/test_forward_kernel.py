@@ -62,7 +62,7 @@ def _both(model, t, x, v=None, bound=None):
     @eqx.filter_jit
     def kern(m, mo):
         mo = mo.consistent()
-        assert fk.supported(m, mo)
+        assert fk.supported(m, mo.t, mo.x, mo.v)
         force, parts, overflow = fk.simulate(m, mo)
         return jaxfric.SimResult(force=force, parts=parts, overflow=overflow)
 
@@ -195,19 +195,19 @@ def test_dispatch(monkeypatch):
     monkeypatch.setenv(_kernel.ENV, "auto")
     mo = make_motion(jnp.arange(5.0), jnp.zeros(5))
     on_cpu = jax.default_backend() == "cpu"
-    assert fk.supported(paper.two_state(), mo) is on_cpu
-    assert fk.supported(power_two_state(), mo) is on_cpu
+    assert fk.supported(paper.two_state(), mo.t, mo.x, mo.v) is on_cpu
+    assert fk.supported(power_two_state(), mo.t, mo.x, mo.v) is on_cpu
 
     class OtherShape(jaxfric.PowerShape):
         pass
 
     other = eqx.tree_at(lambda m: m.shape, power_two_state(),
                         OtherShape(l1=jnp.asarray(4e-6), n=jnp.asarray(2.5)))
-    assert not fk.supported(other, mo)
+    assert not fk.supported(other, mo.t, mo.x, mo.v)
     mo32 = make_motion(jnp.arange(5, dtype=jnp.float32), jnp.zeros(5, jnp.float32))
-    assert not fk.supported(paper.two_state(), mo32)
+    assert not fk.supported(paper.two_state(), mo32.t, mo32.x, mo32.v)
     monkeypatch.setenv(_kernel.ENV, "jax")
-    assert not fk.supported(paper.two_state(), mo)
+    assert not fk.supported(paper.two_state(), mo.t, mo.x, mo.v)
     t, x, _ = MOTIONS["nested"]()
     jax.clear_caches()
     f_jax = jaxfric.simulate(paper.two_state(), t, x)
