@@ -55,7 +55,10 @@ def _check_values(name: str, a) -> None:
     motion, ``at [row, col]`` for motions ``(B, n)``."""
     if isinstance(a, jax.core.Tracer):
         return
-    bad = ~np.isfinite(np.asarray(a))
+    a = np.asarray(a)
+    if np.isfinite(np.sum(a)):  # one pass without a temporary; NaN and inf propagate
+        return
+    bad = ~np.isfinite(a)
     if bad.any():
         at = np.unravel_index(int(np.argmax(bad)), bad.shape)
         where = f"index {at[0]}" if bad.ndim == 1 else f"[{', '.join(map(str, at))}]"
@@ -66,8 +69,16 @@ def _check_values(name: str, a) -> None:
 def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
          a=None, event_pass: str = "auto") -> SimResult:
     """`event_pass` (``JAXFRIC_EVENT_KERNEL``, read when tracing; `jaxfric._kernel`) is a
-    static argument only so that changing it takes effect at the next call."""
-    return model._simulate(make_motion(t, x, v, max_reversals, load, a))
+    static argument only so that changing it takes effect at the next call. A `TwoState`
+    that runs in the compiled forward kernel gets the motion as given (the kernel derives
+    the velocity itself: no XLA pass over the samples before it)."""
+    motion = make_motion(t, x, v, max_reversals, load, a)
+    if type(model) is TwoState and _forward_kernel.supported(
+            model, *(u for u in (t, x, v) if u is not None)):
+        # `motion` is unused there, and compiled away.
+        force, parts, overflow = _forward_kernel.simulate(model, t, x, v, max_reversals)
+        return SimResult(force=force, parts=parts, overflow=overflow)
+    return model._simulate(motion)
 
 
 def _uses_reversal_bound(model, *arrays) -> bool:
@@ -107,9 +118,10 @@ def _checked_motion(t, x, v):
     else:
         t, x, v = _common_float(t, x, v)
     if not isinstance(t, jax.core.Tracer):
-        dt = np.diff(np.asarray(t))
-        if (dt <= 0).any():
-            i = int(np.argmax(dt <= 0)) + 1
+        tn = np.asarray(t)
+        back = tn[1:] <= tn[:-1]
+        if back.any():
+            i = int(np.argmax(back)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     return t, x, v
 

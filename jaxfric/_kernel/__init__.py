@@ -1,15 +1,17 @@
 """The two-state model's compiled CPU kernels, called through the XLA FFI.
 
-Two handlers, compiled together into one shared library from the C++ sources shipped with
-the package (`SOURCES`):
+Three handlers, compiled together into one shared library from the C++ sources shipped
+with the package (`SOURCES`):
 
 * `events.cc`, the event pass: the event loop of ``jaxfric._models.two_state`` as one C++
   loop per trajectory, with the same float64 arithmetic, so that its records are
   bit-identical to the pure-JAX loop's (tests/core/test_event_kernel.py). The JAX path's
   smooth pass runs on them; it is what ``grad`` and ``jacfwd`` differentiate.
-* `forward.cc`, the whole forward pass (events, branch forces, shape, lag: the force of
-  every sample), for an undifferentiated simulation; `jaxfric._kernel.forward` wraps it in
-  a custom JVP whose rule is the JAX path (tests/core/test_forward_kernel.py).
+* `forward.cc`, the whole forward pass (velocity, events, branch forces, shape, lag: the
+  force of every sample), and the same loop on dual numbers (`dual.h`) for the Jacobian
+  with respect to the parameters; `jaxfric._kernel.forward` wraps them in a custom JVP
+  (tests/core/test_forward_kernel.py). Its exponentials and logarithms are vectorised a
+  block of samples at a time (`vmath.h`).
 
 The library is compiled on first use with the system C++ compiler (``$CXX``, else ``c++``,
 ``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``, else

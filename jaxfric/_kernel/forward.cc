@@ -1,22 +1,25 @@
 // The two-state model's whole forward pass as an XLA FFI handler for the CPU (jaxfric/_kernel).
 //
-// One loop per trajectory computes what `TwoState._simulate` computes from a consistent
-// motion (t, x, v): the directions and reversals (`jaxfric.motion.make_motion`), the
-// Stribeck values, the event pass (as events.cc: Rule 1 with wiping-out and overflow, the
-// Rules 2-3 cascade), the branch-start force h of every pushed entry, F_h (Eq. 32) with the
-// shape's Pi and gamma, the friction lag (`TwoState._lag_coefficients`), and
-// F = F_h + F_l + sigma2*v. The discrete decisions are the same comparisons on the same
-// float64 values as the JAX event pass; the forces agree with the JAX path to rounding
-// (~1e-15 relative: the libm and XLA transcendentals differ in the last bits, and h is
-// summed along the stack instead of by prefix sums). Derivatives never come from here: the
-// Python side wraps the call in a custom JVP whose rule is the JAX path.
+// One loop per trajectory computes what `TwoState._simulate` computes from a motion
+// (t, x[, v]): the velocity and directions (`jaxfric.motion.make_motion`, `consistent`),
+// the Stribeck values, the event pass (as events.cc: Rule 1 with wiping-out and overflow,
+// the Rules 2-3 cascade), the branch-start force h of every pushed entry, F_h (Eq. 32) with
+// the shape's Pi and gamma, the friction lag (`TwoState._lag_coefficients`), and
+// F = F_h + F_l + sigma2*v. The discrete decisions are the same comparisons as the JAX
+// event pass's; the forces agree with the JAX path to rounding (~1e-15 relative: the
+// exponentials and logarithms (vmath.h, libm) differ from XLA's in the last bits, and h is
+// summed along the stack instead of by prefix sums). A second handler runs the same loop on
+// dual numbers (dual.h) and also returns the Jacobians of F and F_h with respect to the
+// 12 parameters: the Python side's custom JVP rule (jaxfric/_kernel/forward.py).
 //
-// Inputs: t, x, v (..., n) float64 (v the consistent velocity); params (..., 12) float64:
+// Inputs: t, x, v (..., n) float64 (v the given velocity, made consistent with the steps
+// as `jaxfric.motion.consistent_velocity`; unused with has_v = 0: the backward difference
+// of x); params (..., 12) float64:
 //   Fs, Fc, Vs, delta, sigma2, C, l1, q0, q1, q2, q3, q4 with the shape coordinates q:
 //   shape 0 (PaperShape): a, b, c, alpha, beta; 1 (PowerShape): n;
 //   2 (NormalizedPaperShape): alpha, beta_rel, curvature, quartic.
-// Attributes: shape, stack_size K, limit (the static reversal bound; -1 none), threads.
-// Outputs: force, hysteresis, lag (..., n) float64, depth (..., n) int32 (stack depth after
+// Attributes: shape, stack_size K, limit (the static reversal bound; -1 none), has_v, threads.
+// Outputs: force, hysteresis, lag, viscous (..., n) float64, depth (..., n) int32 (depth after
 // the sample's events), overflow (...) int32 (entries dropped, plus the reversals beyond
 // `limit`; then F_h and F_l are NaN, as in the JAX path). Leading dimensions broadcast as in
 // events.cc (a batch dimension of 1 repeats).
@@ -181,15 +184,17 @@ T pi_only(const Shape<T>& sh, T xi) {
 struct Row {
   const double* t;
   const double* x;
-  const double* v;
+  const double* v;  // the given velocity, or unused (has_v false)
+  bool has_v;
   const double* p;
   double* force;
   double* hyst;
   double* lag;
+  double* viscous;
   int32_t* depth;
   int32_t* overflow;
   double* jac_hyst;  // (n, kParams) with T = D, else unused
-  double* jac_lag;
+  double* jac_force;
 };
 
 inline double sgn(double v) { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
@@ -232,18 +237,26 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
   // pre-pass (vmath.h), a block of samples at a time.
   constexpr bool pre = std::is_same_v<T, double>;
   constexpr int64_t kBlock = 256;
-  double mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
+  double vel[pre ? kBlock : 1], mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
   double stribeck[5] = {value(Fs), value(Fc), value(Vs), value(delta), value(C)};
   for (int64_t j = 0; j < n; ++j) {
     const int64_t i = j % kBlock;
     if constexpr (pre) {
       if (i == 0) {
-        jaxfric::stribeck_block(r.t, r.v, j, std::min(kBlock, n - j), stribeck, mag, decay);
+        jaxfric::stribeck_block(r.t, r.x, r.v, r.has_v, j, std::min(kBlock, n - j), stribeck,
+                                vel, mag, decay);
       }
     }
-    const double xj = r.x[j], vj = r.v[j];
+    const double xj = r.x[j];
     const double x_prev = j > 0 ? r.x[j - 1] : r.x[0];
     const double dt = j > 0 ? r.t[j] - r.t[j - 1] : 0.0;
+    double vj;
+    if constexpr (pre) {
+      vj = vel[i];
+    } else {
+      vj = j > 0 ? jaxfric::motion_velocity(dt, xj - x_prev, r.v[j], r.has_v)
+                 : (r.has_v ? r.v[0] : 0.0);
+    }
     const double d = sgn(vj);
     const bool moving = d != 0.0;
     const double prev_last_d = last_d;
@@ -333,9 +346,11 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
     // A direction-change step (a reversal or the first motion) charges nothing.
     const T b = (moving && d != prev_last_d) ? T(0.0) : T(-gamma * (s - s_prev));
     lag = a * lag + b;
+    const T visc = sigma2 * vj;
+    store(r.force, r.jac_force, j, T(f_h + lag + visc));
     store(r.hyst, r.jac_hyst, j, f_h);
-    store(r.lag, r.jac_lag, j, lag);
-    r.force[j] = value(f_h) + value(lag) + value(sigma2) * vj;
+    r.lag[j] = value(lag);
+    r.viscous[j] = value(visc);
     r.depth[j] = depth;
     s_prev = s;
   }
@@ -346,20 +361,20 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
     std::fill(r.force, r.force + n, nan);
     if constexpr (!std::is_same_v<T, double>) {  // as the JAX path's where(fits, F, nan)
       std::fill(r.jac_hyst, r.jac_hyst + n * kParams, 0.0);
-      std::fill(r.jac_lag, r.jac_lag + n * kParams, 0.0);
+      std::fill(r.jac_force, r.jac_force + n * kParams, 0.0);
     }
     ovf += static_cast<int32_t>(reversals - limit);
   }
   *r.overflow = ovf;
 }
 
-// Both handlers: the forces, and with T = D also their Jacobians (jac_hyst, jac_lag).
+// Both handlers: the forces, and with T = D also Jacobians (jac_force, jac_hyst).
 template <typename T>
 ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer<ffi::F64> v,
                    ffi::Buffer<ffi::F64> params, double* force, double* hyst, double* lag,
-                   int32_t* depth, ffi::ResultBuffer<ffi::S32>& overflow, double* jac_hyst,
-                   double* jac_lag, int64_t shape, int64_t stack_size, int64_t limit,
-                   int64_t threads) {
+                   double* viscous, int32_t* depth, ffi::ResultBuffer<ffi::S32>& overflow,
+                   double* jac_force, double* jac_hyst, int64_t shape, int64_t stack_size,
+                   int64_t limit, int64_t has_v, int64_t threads) {
   auto xd = x.dimensions();
   if (xd.size() < 1) return ffi::Error::InvalidArgument("forward pass: x must have rank >= 1");
   const int64_t n = xd.back();
@@ -380,15 +395,22 @@ ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer
   if (!ok) return ffi::Error::InvalidArgument("forward pass: batch dimensions do not broadcast");
   const int64_t rows = static_cast<int64_t>(ox.size());
   const int kind = static_cast<int>(shape);
-  const int64_t m = jac_hyst ? n * kParams : 0;
+  const int64_t m = jac_force ? n * kParams : 0;
   auto work = [&](int64_t lo, int64_t hi) {
     for (int64_t b = lo; b < hi; ++b) {
-      Row r{t.typed_data() + ot[b] * n,       x.typed_data() + ox[b] * n,
-            v.typed_data() + ov[b] * n,       params.typed_data() + op[b] * kParams,
-            force + b * n,                    hyst + b * n,
-            lag + b * n,                      depth + b * n,
-            overflow->typed_data() + b,       jac_hyst ? jac_hyst + b * m : nullptr,
-            jac_lag ? jac_lag + b * m : nullptr};
+      Row r{t.typed_data() + ot[b] * n,
+            x.typed_data() + ox[b] * n,
+            v.typed_data() + ov[b] * n,
+            has_v != 0,
+            params.typed_data() + op[b] * kParams,
+            force + b * n,
+            hyst + b * n,
+            lag + b * n,
+            viscous + b * n,
+            depth + b * n,
+            overflow->typed_data() + b,
+            jac_hyst ? jac_hyst + b * m : nullptr,
+            jac_force ? jac_force + b * m : nullptr};
       run_row<T>(r, n, K, kind, limit);
     }
   };
@@ -400,25 +422,27 @@ ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer
 ffi::Error ForwardImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
                        ffi::Buffer<ffi::F64> v, ffi::Buffer<ffi::F64> params,
                        ffi::ResultBuffer<ffi::F64> force, ffi::ResultBuffer<ffi::F64> hyst,
-                       ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::S32> depth,
-                       ffi::ResultBuffer<ffi::S32> overflow, int64_t shape, int64_t stack_size,
-                       int64_t limit, int64_t threads) {
+                       ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::F64> viscous,
+                       ffi::ResultBuffer<ffi::S32> depth, ffi::ResultBuffer<ffi::S32> overflow,
+                       int64_t shape, int64_t stack_size, int64_t limit, int64_t has_v,
+                       int64_t threads) {
   return Forward<double>(t, x, v, params, force->typed_data(), hyst->typed_data(),
-                         lag->typed_data(), depth->typed_data(), overflow, nullptr, nullptr,
-                         shape, stack_size, limit, threads);
+                         lag->typed_data(), viscous->typed_data(), depth->typed_data(),
+                         overflow, nullptr, nullptr, shape, stack_size, limit, has_v, threads);
 }
 
 ffi::Error ForwardJacImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
                           ffi::Buffer<ffi::F64> v, ffi::Buffer<ffi::F64> params,
                           ffi::ResultBuffer<ffi::F64> force, ffi::ResultBuffer<ffi::F64> hyst,
-                          ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::S32> depth,
-                          ffi::ResultBuffer<ffi::S32> overflow,
-                          ffi::ResultBuffer<ffi::F64> jac_hyst,
-                          ffi::ResultBuffer<ffi::F64> jac_lag, int64_t shape,
-                          int64_t stack_size, int64_t limit, int64_t threads) {
+                          ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::F64> viscous,
+                          ffi::ResultBuffer<ffi::S32> depth, ffi::ResultBuffer<ffi::S32> overflow,
+                          ffi::ResultBuffer<ffi::F64> jac_force,
+                          ffi::ResultBuffer<ffi::F64> jac_hyst, int64_t shape,
+                          int64_t stack_size, int64_t limit, int64_t has_v, int64_t threads) {
   return Forward<D>(t, x, v, params, force->typed_data(), hyst->typed_data(),
-                    lag->typed_data(), depth->typed_data(), overflow, jac_hyst->typed_data(),
-                    jac_lag->typed_data(), shape, stack_size, limit, threads);
+                    lag->typed_data(), viscous->typed_data(), depth->typed_data(), overflow,
+                    jac_force->typed_data(), jac_hyst->typed_data(), shape, stack_size, limit,
+                    has_v, threads);
 }
 
 }  // namespace
@@ -432,20 +456,22 @@ ffi::Error ForwardJacImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
       .Ret<ffi::Buffer<ffi::F64>>() /* force */      \
       .Ret<ffi::Buffer<ffi::F64>>() /* hysteresis */ \
       .Ret<ffi::Buffer<ffi::F64>>() /* lag */        \
+      .Ret<ffi::Buffer<ffi::F64>>() /* viscous */    \
       .Ret<ffi::Buffer<ffi::S32>>() /* depth */      \
       .Ret<ffi::Buffer<ffi::S32>>() /* overflow */
 
+#define JAXFRIC_FORWARD_ATTRS     \
+  .Attr<int64_t>("shape")         \
+      .Attr<int64_t>("stack_size") \
+      .Attr<int64_t>("limit")      \
+      .Attr<int64_t>("has_v")      \
+      .Attr<int64_t>("threads")
+
 XLA_FFI_DEFINE_HANDLER_SYMBOL(JaxfricForwardPass, ForwardImpl,
-                              JAXFRIC_FORWARD_ARGS.Attr<int64_t>("shape")
-                                  .Attr<int64_t>("stack_size")
-                                  .Attr<int64_t>("limit")
-                                  .Attr<int64_t>("threads"));
+                              JAXFRIC_FORWARD_ARGS JAXFRIC_FORWARD_ATTRS);
 
 XLA_FFI_DEFINE_HANDLER_SYMBOL(JaxfricForwardJacobian, ForwardJacImpl,
                               JAXFRIC_FORWARD_ARGS
+                                  .Ret<ffi::Buffer<ffi::F64>>()  // d force / d params
                                   .Ret<ffi::Buffer<ffi::F64>>()  // d hysteresis / d params
-                                  .Ret<ffi::Buffer<ffi::F64>>()  // d lag / d params
-                                  .Attr<int64_t>("shape")
-                                  .Attr<int64_t>("stack_size")
-                                  .Attr<int64_t>("limit")
-                                  .Attr<int64_t>("threads"));
+                                      JAXFRIC_FORWARD_ATTRS);

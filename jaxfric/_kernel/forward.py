@@ -1,19 +1,23 @@
 """The two-state model's whole forward pass in the compiled CPU kernel (forward.cc).
 
-`TwoState._simulate` calls `simulate` here when `supported`: on the CPU backend, float64
-inputs and parameters, the kernel built (``JAXFRIC_EVENT_KERNEL`` as for the event pass,
-`jaxfric._kernel`), a plain `TwoState` with the `Stribeck` curve and one of the shapes the
-kernel implements (`PaperShape`, `PowerShape`, `NormalizedPaperShape`; any other shape runs
-the JAX path). One kernel call then gives the force of every sample, the parts and the
-overflow count, with the forces of the JAX path to rounding (tests/core/test_forward_kernel.py).
+`jaxfric.simulate` (through `jaxfric._simulate._run`) and `TwoState._simulate` call
+`simulate` here when `supported`: on the CPU backend, float64 inputs and parameters, the
+kernels built (``JAXFRIC_EVENT_KERNEL`` as for the event pass, `jaxfric._kernel`), a plain
+`TwoState` with the `Stribeck` curve and one of the shapes the kernel implements
+(`PaperShape`, `PowerShape`, `NormalizedPaperShape`; any other runs the JAX path). One
+kernel call then gives the force of every sample, the parts and the overflow count; it
+derives the velocity itself (the backward difference, or the given one made consistent
+with the steps), so XLA runs nothing else. Forces agree with the JAX path
+(`TwoState._simulate_jax`) to rounding (tests/core/test_forward_kernel.py).
 
-Derivatives: the call is a `jax.custom_jvp` whose rule is ``jax.jvp`` of the JAX path
-(`TwoState._simulate_jax`, whose event pass is on stopped gradients and runs in the event
-kernel), so ``grad``, ``jacfwd`` and the fits get exactly the derivatives of the JAX path,
-and only an undifferentiated evaluation (``simulate``, a ``vmap`` of it, a fit's residual)
-runs the forward kernel. Under ``vmap`` the call receives the batch
-(``vmap_method="expand_dims"``: an unbatched input keeps a dimension of 1, which the kernel
-broadcasts) and loops over it, on several threads when the batch is large.
+Derivatives: the call is a `jax.custom_jvp`. For tangents of the parameters (``grad``,
+``jacfwd``, a fit's Jacobian) its rule calls the same loop on dual numbers
+(`jacobian_pass`), which returns the Jacobians of the force and of the hysteresis force
+with respect to the packed parameters (`pack`), and contracts them with the tangent; the
+derivatives agree with the JAX path's to rounding. For tangents of the motion (positions,
+times, velocities) the rule is ``jax.jvp`` of the JAX path. Under ``vmap`` a call receives
+the batch (``vmap_method="expand_dims"``: an unbatched input keeps a dimension of 1, which
+the kernel broadcasts) and loops over it, on several threads when the batch is large.
 """
 
 import equinox as eqx
@@ -72,53 +76,62 @@ def pack(model) -> jax.Array:
     return jnp.stack(leaves)
 
 
-def _call(target, t, x, v, params, shape, stack_size, limit, jacobian):
+def _call(target, t, x, v, params, shape, stack_size, limit, has_v, jacobian):
     n = x.shape[-1]
     f64, i32 = jnp.float64, jnp.int32
-    out = [jax.ShapeDtypeStruct((n,), f64)] * 3 + [jax.ShapeDtypeStruct((n,), i32),
+    out = [jax.ShapeDtypeStruct((n,), f64)] * 4 + [jax.ShapeDtypeStruct((n,), i32),
                                                    jax.ShapeDtypeStruct((), i32)]
     if jacobian:
         out += [jax.ShapeDtypeStruct((n, N_PARAMS), f64)] * 2
     call = jax.ffi.ffi_call(target, tuple(out), vmap_method="expand_dims")
     return call(t, x, v, params, shape=np.int64(shape), stack_size=np.int64(stack_size),
-                limit=np.int64(limit), threads=np.int64(_kernel.threads()))
+                limit=np.int64(limit), has_v=np.int64(has_v),
+                threads=np.int64(_kernel.threads()))
 
 
 def forward_pass(t, x, v, params, shape: int, stack_size: int, limit: int):
-    """One call of the kernel: ``(force, hysteresis, lag, depth, overflow)`` (forward.cc).
-    `limit` is the static reversal bound (-1: none)."""
-    return _call(_kernel.FORWARD_TARGET, t, x, v, params, shape, stack_size, limit, False)
+    """One call of the kernel: ``(force, hysteresis, lag, viscous, depth, overflow)``
+    (forward.cc). `v` None: the backward difference of `x`. `limit` is the static reversal
+    bound (-1: none)."""
+    return _call(_kernel.FORWARD_TARGET, t, x, x if v is None else v, params, shape,
+                 stack_size, limit, v is not None, False)
 
 
 def jacobian_pass(t, x, v, params, shape: int, stack_size: int, limit: int):
-    """`forward_pass` plus the Jacobians of the hysteresis and lag forces with respect to
-    the packed parameters, each ``(n, N_PARAMS)`` (forward.cc, dual numbers)."""
-    return _call(_kernel.FORWARD_JACOBIAN_TARGET, t, x, v, params, shape, stack_size, limit,
-                 True)
+    """`forward_pass` plus the Jacobians of the force and of the hysteresis force with
+    respect to the packed parameters, each ``(n, N_PARAMS)`` (forward.cc, dual numbers)."""
+    return _call(_kernel.FORWARD_JACOBIAN_TARGET, t, x, x if v is None else v, params, shape,
+                 stack_size, limit, v is not None, True)
 
 
 def _zero_tangent(a):
     return np.zeros(jnp.shape(a), dtype=jax.dtypes.float0)
 
 
-def simulate(model, motion):
-    """`TwoState._simulate` of a consistent `motion` through the kernel (module docstring).
-    Returns the force, the parts (a dict as `SimResult.parts`) and the overflow count."""
+def simulate(model, t, x, v=None, max_reversals: int | None = None):
+    """`TwoState._simulate` of the motion ``(t, x[, v])`` (1-D; `v` None: the backward
+    difference; a given one is made consistent with the steps) through the kernel (module
+    docstring). Returns the force, the parts (a dict as `SimResult.parts`) and the overflow
+    count."""
     params, static = eqx.partition(model, eqx.is_array)
     flat, treedef = jax.tree.flatten(params)
     order = _leaves(model)
     where = [next(i for i, a in enumerate(order) if a is leaf) for leaf in flat]
-    bound = -1 if motion.max_reversals is None else motion.max_reversals
-    shape, size = SHAPES[type(model.shape)][0], model.stack_size
+    bound = -1 if max_reversals is None else max_reversals
+    shape, size, has_v = SHAPES[type(model.shape)][0], model.stack_size, v is not None
+
+    def velocity(t, x, v):
+        return make_motion(t, x, v if has_v else None).consistent().v
 
     def jax_path(packed, t, x, v):
         m = eqx.combine(jax.tree.unflatten(treedef, [packed[i] for i in where]), static)
-        r = m._simulate_jax(make_motion(t, x, v, motion.max_reversals))
-        return r.force, r.parts["hysteresis"], r.parts["lag"], r.parts["depth"], r.overflow
+        r = m._simulate_jax(make_motion(t, x, v if has_v else None, max_reversals).consistent())
+        return (r.force, r.parts["hysteresis"], r.parts["lag"], r.parts["viscous"],
+                r.parts["depth"], r.overflow)
 
     @jax.custom_jvp
     def run(packed, t, x, v):
-        return forward_pass(t, x, v, packed, shape, size, bound)
+        return forward_pass(t, x, v if has_v else None, packed, shape, size, bound)
 
     def run_jvp(primals, tangents):
         packed, t, x, v = primals
@@ -128,14 +141,15 @@ def simulate(model, motion):
             tangents = [jnp.zeros_like(p) if type(d) is SymbolicZero else d
                         for p, d in zip(primals, tangents)]
             return jax.jvp(jax_path, tuple(primals), tuple(tangents))
-        *out, jac_h, jac_l = jacobian_pass(t, x, v, packed, shape, size, bound)
+        *out, jac_f, jac_h = jacobian_pass(t, x, v if has_v else None, packed, shape, size,
+                                           bound)
         if type(dp) is SymbolicZero:
             dp = jnp.zeros_like(packed)
-        d_h, d_l = jac_h @ dp, jac_l @ dp
-        d_force = d_h + d_l + v * dp[4]
-        return tuple(out), (d_force, d_h, d_l, _zero_tangent(out[3]), _zero_tangent(out[4]))
+        d_f, d_h, d_visc = jac_f @ dp, jac_h @ dp, velocity(t, x, v) * dp[4]
+        return tuple(out), (d_f, d_h, d_f - d_h - d_visc, d_visc, _zero_tangent(out[4]),
+                            _zero_tangent(out[5]))
 
     run.defjvp(run_jvp, symbolic_zeros=True)
-    force, hyst, lag, depth, overflow = run(pack(model), motion.t, motion.x, motion.v)
-    parts = {"hysteresis": hyst, "lag": lag, "viscous": model.sigma2 * motion.v, "depth": depth}
+    force, hyst, lag, viscous, depth, overflow = run(pack(model), t, x, x if v is None else v)
+    parts = {"hysteresis": hyst, "lag": lag, "viscous": viscous, "depth": depth}
     return force, parts, overflow

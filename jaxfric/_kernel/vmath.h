@@ -91,21 +91,37 @@ inline double vlog(double x) {
   return e * 6.93147180369123816490e-01 + (2.0 * s * q + e * 1.90821492927058770002e-10);
 }
 
-// For samples j0 .. j0+m-1 of one trajectory: mag[i] = |s(v_j)| (the Stribeck magnitude,
-// used where v_j != 0) and decay[i] = exp(-C*dt_j/mag[i]) (dt_0 = 0), as
-// `Stribeck.magnitude` and `TwoState._lag_coefficients` (p: Fs, Fc, Vs, delta, C).
+// The velocity of sample j > 0 (`jaxfric.motion.consistent_velocity` of the given one, or
+// `backward_velocity` when there is none), written without branches.
+inline double motion_velocity(double dt, double dx, double v_in, bool has_v) {
+  const double back = dt > 0.0 ? dx / (dt > 0.0 ? dt : 1.0) : 0.0;
+  const double v = has_v ? v_in : back;
+  return v * dx < 0.0 ? back : v;
+}
+
+// For samples j0 .. j0+m-1 of one trajectory: vel[i] (`motion_velocity`; v_0 is the given
+// one, or 0), mag[i] = |s(v_j)| (the Stribeck magnitude, used where v_j != 0) and decay[i] =
+// exp(-C*dt_j/mag[i]) (dt_0 = 0), as `Stribeck.magnitude` and
+// `TwoState._lag_coefficients` (p: Fs, Fc, Vs, delta, C).
 JAXFRIC_SIMD_CLONES
-inline void stribeck_block(const double* t, const double* v, int64_t j0, int64_t m,
-                           const double* p, double* mag, double* decay) {
+inline void stribeck_block(const double* t, const double* x, const double* v, bool has_v,
+                           int64_t j0, int64_t m, const double* p, double* vel, double* mag,
+                           double* decay) {
   const double Fs = p[0], Fc = p[1], Vs = p[2], delta = p[3], C = p[4];
   const double dfs = Fs - Fc;
   // Every operation runs on every sample and selects pick the results (safe_div, safe_pow):
   // no branch, so the loops vectorise.
   const double vs_safe = Vs != 0.0 ? Vs : 1.0, vs_on = Vs != 0.0 ? 1.0 : 0.0;
   const double* tp = t + j0;
+  const double* xp = x + j0;
   const double* vp = v + j0;
+  const int64_t first = j0 == 0 ? 1 : 0;
+  if (first == 1 && m > 0) vel[0] = has_v ? v[0] : 0.0;
+  for (int64_t i = first; i < m; ++i) {
+    vel[i] = motion_velocity(tp[i] - tp[i - 1], xp[i] - xp[i - 1], vp[i], has_v);
+  }
   for (int64_t i = 0; i < m; ++i) {
-    const double av = vp[i] < 0.0 ? -vp[i] : vp[i];
+    const double av = vel[i] < 0.0 ? -vel[i] : vel[i];
     const double u = (av / vs_safe) * vs_on;
     const double lu = vlog(u > 0.0 ? u : 1.0);
     const double e = vexp(delta * lu);
@@ -113,7 +129,6 @@ inline void stribeck_block(const double* t, const double* v, int64_t j0, int64_t
     mag[i] = Fc + dfs * vexp(-pw);
   }
   // The decay over dt_j = t_j - t_{j-1} (0 at j = 0), with the magnitude just computed.
-  const int64_t first = j0 == 0 ? 1 : 0;
   if (first == 1 && m > 0) decay[0] = 1.0;
   for (int64_t i = first; i < m; ++i) {
     const double mg = mag[i];

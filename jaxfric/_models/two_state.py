@@ -290,11 +290,11 @@ class TwoState(AbstractFrictionModel):
     # ---- whole trajectory -------------------------------------------------------------
 
     def _simulate(self, motion: Motion) -> SimResult:
-        motion = motion.consistent()
         if type(self) is TwoState and _forward_kernel.supported(self, motion.t, motion.x, motion.v):
-            force, parts, overflow = _forward_kernel.simulate(self, motion)  # compiled, CPU
+            force, parts, overflow = _forward_kernel.simulate(  # compiled, on the CPU
+                self, motion.t, motion.x, motion.v, motion.max_reversals)
             return SimResult(force=force, parts=parts, overflow=overflow)
-        return self._simulate_jax(motion)
+        return self._simulate_jax(motion.consistent())
 
     def _simulate_jax(self, motion: Motion) -> SimResult:
         """`_simulate` of a consistent `motion` in JAX (the path on GPU/TPU, and the JVP

@@ -61,9 +61,10 @@ def _both(model, t, x, v=None, bound=None):
 
     @eqx.filter_jit
     def kern(m, mo):
-        mo = mo.consistent()
         assert fk.supported(m, mo.t, mo.x, mo.v)
-        force, parts, overflow = fk.simulate(m, mo)
+        # as `simulate` calls it: the velocity given, or derived in the kernel
+        force, parts, overflow = fk.simulate(m, mo.t, mo.x, None if v is None else mo.v,
+                                             mo.max_reversals)
         return jaxfric.SimResult(force=force, parts=parts, overflow=overflow)
 
     @eqx.filter_jit
