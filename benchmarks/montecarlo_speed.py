@@ -8,7 +8,7 @@ Issue 19 item 3 asks for jaxfric >= 2x a Numba ``prange`` loop of the same algor
   the plain ``jax.vmap`` of `jaxfric.simulate` over them, against
   `simulate_numba_params` (``prange`` over the sets). Under ``vmap`` the motion
   (velocity, directions, reversals, reversal list) does not depend on the batched
-  parameters, so JAX computes it once; the event pass, the Stribeck values, the shape
+  parameters, so JAX computes it once; the events, the Stribeck values, the shape
   and the lag depend on them (the loop-closure test ``(x - x_k)/(S - s_k) >= theta_k``
   involves ``S = s(v)``, ``Fs`` and ``l1``), so they run per set.
 - A batch of B trajectories (random phases of the mixed motion) with one model,
@@ -20,11 +20,13 @@ Also timed: the float64 elementwise operations the simulation is made of (``pow`
 ``exp(p * log(x))``, ``exp``, ``log``) on B x n elements, the reason the power in
 `jaxfric._numerics._pos_pow` is written as an exponential of a logarithm.
 
-Each jaxfric case runs twice, side by side: with the default event pass (the compiled CPU
-kernel, `jaxfric._kernel`) and with the pure-JAX one (``JAXFRIC_EVENT_KERNEL=jax``;
-``pure`` columns). Every case is called once per round, interleaved; medians over the rounds
-after a warm-up call. The machine is shared, so only the ratios of one run mean much. Numba runs on
-``numba.get_num_threads()`` threads; XLA on the CPU runs these programs on one.
+Each jaxfric case runs twice, side by side: with the default (the two-state forward pass in
+the compiled CPU kernel, `jaxfric._kernel.forward`, looping over the batch on up to
+``len(os.sched_getaffinity(0))`` threads) and on the pure-JAX path
+(``JAXFRIC_EVENT_KERNEL=jax``; ``pure`` columns). Every case is called once per round,
+interleaved; medians over the rounds after a warm-up call. The machine is shared, so only
+the ratios of one run mean much. Numba runs on ``numba.get_num_threads()`` threads; XLA on
+the CPU runs the pure-JAX programs on one.
 
 Run ``python benchmarks/montecarlo_speed.py [--quick] [--repeats R] [--json OUT]``
 (defaults: B = 256, n = 1e4, single n = 1e5 and 1e6; ``--quick``: B = 8, n = 2000, single
@@ -84,7 +86,7 @@ def _spread(model, B: int, rng):
 
 
 def _pure(f, *args, **kwargs):
-    """`f` with the pure-JAX event pass (``JAXFRIC_EVENT_KERNEL=jax``): `simulate` and
+    """`f` on the pure-JAX path (``JAXFRIC_EVENT_KERNEL=jax``): `simulate` and
     `simulate_many` key their compilation caches on it, so both paths stay compiled."""
     with _kernel.forced("jax"):
         return f(*args, **kwargs)
@@ -92,8 +94,8 @@ def _pure(f, *args, **kwargs):
 
 def _row(what, size, times, diff):
     """`times`: medians of ``many`` (`jaxfric.simulate_many`, or `simulate` for one
-    trajectory; the default event pass, the compiled kernel on the CPU), ``pure`` (the
-    same with the pure-JAX event pass), ``vmap`` (``jax.vmap`` of `simulate`; absent for
+    trajectory; the default, the compiled kernel on the CPU), ``pure`` (the
+    same on the pure-JAX path), ``vmap`` (``jax.vmap`` of `simulate`; absent for
     one trajectory) and ``numba``."""
     return {"case": what, "size": size, "jaxfric_s": times["many"],
             "pure_jax_s": times["pure"],
@@ -204,7 +206,7 @@ def main(argv=None) -> int:
     ops = bench_ops(B, n, repeats)
     print(f"two-state simulate against Numba prange ({numba.get_num_threads()} threads), "
           f"medians of {repeats} rounds; ratio = Numba time / jaxfric time (target >= 2); "
-          "jaxfric: the compiled event kernel (default), pure: the pure-JAX event pass")
+          "jaxfric: the compiled forward kernel (default), pure: the pure-JAX path")
     print(f"{'case':62s} {'B':>5s} {'n':>8s} {'jaxfric s':>10s} {'pure s':>8s} "
           f"{'vmap s':>8s} {'Numba s':>9s} {'ratio':>6s} {'(pure)':>6s} {'(vmap)':>6s} "
           f"{'max |dF| N':>10s}")

@@ -31,9 +31,10 @@ device (``jnp.asarray``) before timing; the Numba baseline gets NumPy arrays.
    ``simulate_numba_batch`` (``numba.prange`` over trajectories). Each B is compiled first;
    XLA's own memory analysis (arguments + outputs + temporaries) plus the host copies of
    the inputs give the footprint, and a B whose footprint exceeds ``--mem-budget-gb``
-   (default 4 GiB, for a shared machine) is skipped and reported as skipped. The vmapped
-   two-state needs about 180 bytes per trajectory-step, so B = 4096 at 1e4 steps (about
-   6.7 GiB) is skipped by default; ``--mem-budget-gb 8`` includes it. The Numba batch
+   (default 4 GiB, for a shared machine) is skipped and reported as skipped, each path
+   on its own footprint: the pure-JAX path needs about 180 bytes per trajectory-step, so
+   it skips B = 4096 at 1e4 steps (about 6.7 GiB) by default (``--mem-budget-gb 8``
+   includes it); the forward kernel needs its inputs and outputs only. The Numba batch
    needs 24 bytes per trajectory-step and runs wherever it fits.
 3. *Compile times*: first call minus steady state for each model (section 1), and
    ``lower()`` / ``compile()`` timings for the vmapped simulation and the gradients.
@@ -211,13 +212,13 @@ def jax_models() -> dict:
     return models
 
 
-#: The two-state model with its event pass in pure JAX (``JAXFRIC_EVENT_KERNEL=jax``), timed
+#: The two-state model on its pure-JAX path (``JAXFRIC_EVENT_KERNEL=jax``), timed
 #: beside the default (the compiled kernel on the CPU, `jaxfric._kernel`).
 PURE = "TwoState (pure JAX)"
 
 
 def _pure(f, *args, **kwargs):
-    """`f` traced and run with the pure-JAX event pass (`simulate` keys its compilation
+    """`f` traced and run on the pure-JAX path (`simulate` keys its compilation
     cache on the choice, so both stay compiled side by side)."""
     with _kernel.forced("jax"):
         return f(*args, **kwargs)
@@ -266,14 +267,40 @@ def _batch_paths(B, n, rng) -> tuple[np.ndarray, np.ndarray]:
 def _batch_agreement(kernel, pure, numba) -> dict:
     """Max |dF| (N) of the default path against Numba and against the pure-JAX path."""
     kernel = np.asarray(kernel)
-    return {"max_abs_diff_N": float(np.max(np.abs(kernel - numba))),
-            "kernel_vs_pure_max_abs_diff_N": float(np.max(np.abs(kernel - np.asarray(pure))))}
+    out = {"max_abs_diff_N": float(np.max(np.abs(kernel - numba)))}
+    if pure is not None:
+        out["kernel_vs_pure_max_abs_diff_N"] = float(np.max(np.abs(kernel - np.asarray(pure))))
+    return out
 
 
 def _batched(bound):
     """``jax.jit(jax.vmap(simulate))`` over trajectories, with the static reversal bound."""
     return jax.jit(lambda m, T, X: jax.vmap(
         lambda t, x: jaxfric.simulate(m, t, x, max_reversals=bound))(T, X))
+
+
+def _footprints(compiled, pure, B, n, budget_bytes):
+    """The memory footprints of a batch (XLA's analysis plus the host inputs; Numba's inputs
+    and output) and which cases fit the budget: ``(row, run_jax, run_pure, run_numba)``."""
+    xla_bytes, pure_bytes = _xla_bytes(compiled), _xla_bytes(pure)
+    host_in = 2 * B * n * 8  # NumPy T and X
+    numba_bytes = host_in + B * n * 8  # inputs + output
+    jax_total = None if xla_bytes is None else xla_bytes + host_in
+    pure_total = None if pure_bytes is None else pure_bytes + host_in
+    row = {"B": B, "n": n, "xla_bytes": xla_bytes, "jax_footprint_bytes": jax_total,
+           "jax_pure_footprint_bytes": pure_total, "numba_footprint_bytes": numba_bytes}
+
+    def fits(total, key):
+        if total is not None and total > budget_bytes:
+            row[key] = (f"estimated {total / 2**30:.1f} GiB > budget "
+                        f"{budget_bytes / 2**30:.1f} GiB")
+            return False
+        return True
+
+    run_jax = fits(jax_total, "jax_skipped")
+    run_pure = run_jax and fits(pure_total, "jax_pure_skipped")
+    run_numba = fits(numba_bytes, "numba_skipped")
+    return row, run_jax, run_pure, run_numba
 
 
 def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
@@ -291,27 +318,15 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
         spec = jax.ShapeDtypeStruct((B, n), dtype)
         compiled, t_lower, t_compile = _lower_compile(_batched(bound), model, spec, spec)
         pure, _, _ = _pure(_lower_compile, _batched(bound), model, spec, spec)
-        xla_bytes = _xla_bytes(compiled)
-        host_in = 2 * B * n * 8  # NumPy T and X
-        numba_bytes = host_in + B * n * 8  # inputs + output
-        jax_total = None if xla_bytes is None else xla_bytes + host_in
-        row = {"B": B, "n": n, "lower_s": t_lower, "compile_s": t_compile,
-               "xla_bytes": xla_bytes, "jax_footprint_bytes": jax_total,
-               "numba_footprint_bytes": numba_bytes}
-        run_jax = jax_total is None or jax_total <= budget_bytes
-        run_numba = numba_bytes <= budget_bytes
-        if not run_jax:
-            row["jax_skipped"] = (f"estimated {jax_total / 2**30:.1f} GiB > budget "
-                                  f"{budget_bytes / 2**30:.1f} GiB")
-        if not run_numba:
-            row["numba_skipped"] = (f"estimated {numba_bytes / 2**30:.1f} GiB > budget "
-                                    f"{budget_bytes / 2**30:.1f} GiB")
+        row, run_jax, run_pure, run_numba = _footprints(compiled, pure, B, n, budget_bytes)
+        row.update(lower_s=t_lower, compile_s=t_compile)
         cases = {}
         if run_jax or run_numba:
             if run_jax:
                 Tj, Xj = jnp.asarray(T), jnp.asarray(X)
                 cases["jaxfric vmap"] = lambda c=compiled, T=Tj, X=Xj: c(model, T, X)
-                cases["pure JAX vmap"] = lambda c=pure, T=Tj, X=Xj: c(model, T, X)
+                if run_pure:
+                    cases["pure JAX vmap"] = lambda c=pure, T=Tj, X=Xj: c(model, T, X)
             if run_numba:
                 cases["Numba prange"] = (
                     lambda T=T, X=X: nbts.simulate_numba_batch(params, T, X))
@@ -328,7 +343,8 @@ def bench_batch(sizes_B, n, repeats, budget_bytes, log) -> dict:
                     row[f"{key}_ns_per_traj_step"] = 1e9 * r["median_s"] / (B * n)
                     row[f"{key}_times_s"] = r["times_s"]
             if run_jax and run_numba:
-                row.update(_batch_agreement(compiled(model, Tj, Xj), pure(model, Tj, Xj),
+                row.update(_batch_agreement(compiled(model, Tj, Xj),
+                                            pure(model, Tj, Xj) if run_pure else None,
                                             nbts.simulate_numba_batch(params, T, X)))
             cases.clear()
             if run_jax:
@@ -409,12 +425,12 @@ def bench_lm(n, repeats, log) -> dict:
 
 
 def bench_lm_both(n, repeats, log) -> tuple[dict, dict]:
-    """Section 5 with the default event pass (the kernel on the CPU), then with the pure-JAX
+    """Section 5 with the default (the compiled kernels on the CPU), then with the pure-JAX
     one. The fits' programs do not key their caches on the choice: each is traced afresh."""
     jax.clear_caches()
     default = bench_lm(n, repeats, log)
     jax.clear_caches()
-    log("  (pure-JAX event pass)")
+    log("  (pure-JAX path)")
     pure = _pure(bench_lm, n, repeats, log)
     jax.clear_caches()
     return default, pure

@@ -28,7 +28,7 @@ def _single(rows, impl, n):
 
 
 def _pure_jax_ratios(results: dict, cfg: dict) -> list:
-    """The ratios of the pure-JAX event pass (``JAXFRIC_EVENT_KERNEL=jax``), when timed."""
+    """The ratios of the pure-JAX path (``JAXFRIC_EVENT_KERNEL=jax``), when timed."""
     ratios, single = [], results["single"]["rows"]
     for n in cfg["single_n"]:
         ts, nb, pure = (_single(single, k, n) for k in ("TwoState", "Numba two-state", PURE))
@@ -213,7 +213,7 @@ def report(results: dict) -> str:
         [[f"max_steps={f['max_steps']}", _f(f["median_s"], ".4f"), _f(f["compile_s"], ".2f")]
          for f in lm["fits"]]
         + [["one iteration (difference / extra steps)", _f(lm["iteration_s"], ".4f"), ""]]
-        + ([["one iteration, pure-JAX event pass", _f(results["lm_pure_jax"]["iteration_s"],
+        + ([["one iteration, pure-JAX path", _f(results["lm_pure_jax"]["iteration_s"],
                                                        ".4f"), ""]]
            if "lm_pure_jax" in results else [])))
     out.append("")

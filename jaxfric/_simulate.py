@@ -12,7 +12,9 @@ from jaxtyping import ArrayLike
 
 from . import _kernel
 from ._compile import jit
+from ._kernel import forward as _forward_kernel
 from ._models._base import AbstractFrictionModel, SimResult
+from ._models.two_state import TwoState
 from .motion import auto_deadband, make_motion, play, played_velocity, reversal_bound
 
 
@@ -53,7 +55,10 @@ def _check_values(name: str, a) -> None:
     motion, ``at [row, col]`` for motions ``(B, n)``."""
     if isinstance(a, jax.core.Tracer):
         return
-    bad = ~np.isfinite(np.asarray(a))
+    a = np.asarray(a)
+    if np.isfinite(np.sum(a)):  # one pass without a temporary; NaN and inf propagate
+        return
+    bad = ~np.isfinite(a)
     if bad.any():
         at = np.unravel_index(int(np.argmax(bad)), bad.shape)
         where = f"index {at[0]}" if bad.ndim == 1 else f"[{', '.join(map(str, at))}]"
@@ -64,18 +69,32 @@ def _check_values(name: str, a) -> None:
 def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
          a=None, event_pass: str = "auto") -> SimResult:
     """`event_pass` (``JAXFRIC_EVENT_KERNEL``, read when tracing; `jaxfric._kernel`) is a
-    static argument only so that changing it takes effect at the next call."""
-    return model._simulate(make_motion(t, x, v, max_reversals, load, a))
+    static argument only so that changing it takes effect at the next call. A `TwoState`
+    that runs in the compiled forward kernel gets the motion as given (the kernel derives
+    the velocity itself: no XLA pass over the samples before it)."""
+    motion = make_motion(t, x, v, max_reversals, load, a)
+    if type(model) is TwoState and _forward_kernel.supported(
+            model, *(u for u in (t, x, v) if u is not None)):
+        # `motion` is unused there, and compiled away.
+        force, parts, overflow = _forward_kernel.simulate(model, t, x, v, max_reversals)
+        return SimResult(force=force, parts=parts, overflow=overflow)
+    return model._simulate(motion)
 
 
-def _uses_reversal_bound(model) -> bool:
+def _uses_reversal_bound(model, *arrays) -> bool:
     """Whether `model`, or a model inside it (e.g. under added effects), evaluates terms on
-    a list of reversals (`AbstractFrictionModel.uses_reversal_bound`)."""
+    a list of reversals (`AbstractFrictionModel.uses_reversal_bound`), on a motion of
+    `arrays` (t, x, v; none: any motion): a `TwoState` that runs in the compiled forward
+    kernel (`jaxfric._kernel.forward`) needs no list."""
 
     def uses(m):
         return getattr(m, "uses_reversal_bound", False) is True
 
-    return any(uses(m) for m in jax.tree.leaves(model, is_leaf=uses))
+    def needs(m):
+        return uses(m) and not (arrays and type(m) is TwoState and _forward_kernel.supported(
+            m, *arrays, scalar_params=False))
+
+    return any(needs(m) for m in jax.tree.leaves(model, is_leaf=uses))
 
 
 def _checked_motion(t, x, v):
@@ -99,9 +118,10 @@ def _checked_motion(t, x, v):
     else:
         t, x, v = _common_float(t, x, v)
     if not isinstance(t, jax.core.Tracer):
-        dt = np.diff(np.asarray(t))
-        if (dt <= 0).any():
-            i = int(np.argmax(dt <= 0)) + 1
+        tn = np.asarray(t)
+        back = tn[1:] <= tn[:-1]
+        if back.any():
+            i = int(np.argmax(back)) + 1
             raise ValueError(f"t must be strictly increasing; t[{i}] <= t[{i - 1}]")
     return t, x, v
 
@@ -144,8 +164,8 @@ def apply_deadband(x, v, deadband, t=None):
 def _max_reversals(model, t, x, v, max_reversals: int | None) -> int | None:
     """The static size of the reversal list: the user's, or counted on concrete data for
     the models that use one (`_uses_reversal_bound`)."""
-    if max_reversals is None and _uses_reversal_bound(model) and not any(
-            isinstance(a, jax.core.Tracer) for a in (t, x, v)):
+    if max_reversals is None and not any(isinstance(a, jax.core.Tracer) for a in (t, x, v)) \
+            and _uses_reversal_bound(model, *(a for a in (t, x, v) if a is not None)):
         max_reversals = reversal_bound(t, x, v)
     if max_reversals is not None:
         max_reversals = operator.index(max_reversals)

@@ -1,21 +1,24 @@
 """Where the time of one two-state simulation goes: cumulative stages, side by side.
 
-`TwoState._simulate` runs in stages (see docs/speed.md), each a method of the
-model that this script calls in the same order: the motion's per-sample inputs (velocity,
-direction, last direction) and the Stribeck values; the event pass (sequential, on stopped
-gradients: the compiled CPU kernel of `jaxfric._kernel` by default, the pure-JAX
-``lax.while_loop`` over blocks and events with ``JAXFRIC_EVENT_KERNEL=jax``); the forward
-fill of its records (which entry each sample uses; the kernel returns it filled); the
-branch-start forces (evaluated on the list of reversals, then gathered per sample); the
-branch force ``F_h`` and ``gamma`` (the shape function at every sample); and the friction
-lag (its coefficients and the linear recurrence), which completes the simulation. Each row
-below is a separately compiled function that runs the stages up to and including that one
-and returns the sum of that stage's outputs (so that writing them to memory is not timed;
-the last row is the simulation itself and writes the force), and the difference between
-consecutive rows is the cost of a stage, approximately (the compiler may fuse or overlap
-stages differently when they end a function than inside the whole simulation). Also timed:
-the whole simulation's ``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt
-iteration needs).
+On the CPU `jaxfric.simulate` runs the whole two-state forward pass in one compiled kernel
+(`jaxfric._kernel.forward`), timed here as the row "forward kernel (= simulate)". The JAX
+path (`TwoState._simulate_jax`: on GPU/TPU, and what the kernel is checked against) runs in
+stages, each a method of the model that this script calls in the same order: the motion's
+per-sample inputs (velocity, direction, last direction) and the Stribeck values; the event
+pass (sequential, on stopped gradients: the compiled CPU kernel of `jaxfric._kernel` by
+default, the pure-JAX ``lax.while_loop`` over blocks and events with
+``JAXFRIC_EVENT_KERNEL=jax``); the forward fill of its records (which entry each sample
+uses; the kernel returns it filled); the branch-start forces (evaluated on the list of
+reversals, then gathered per sample); the branch force ``F_h`` and ``gamma`` (the shape
+function at every sample); and the friction lag (its coefficients and the linear
+recurrence), which completes the simulation. Each row below is a separately compiled
+function that runs the stages up to and including that one and returns the sum of that
+stage's outputs (so that writing them to memory is not timed; row 6 and the kernel's row
+are whole simulations and write the force), and the difference between consecutive rows is the
+cost of a stage, approximately (the compiler may fuse or overlap stages differently when
+they end a function than inside the whole simulation). Also timed: the whole simulation's
+``jax.jacfwd`` over the 12 parameters (what a Levenberg-Marquardt iteration needs), through
+the kernel's Jacobian (dual numbers) and through the JAX path.
 
 Run ``python benchmarks/profiling/profile_two_state.py [--n N] [--batch B | --params B]
 [--repeats R] [--json OUT]``; the JSON's ``meta.event_pass`` says which event pass ran.
@@ -73,7 +76,7 @@ def _stages(model, T, X, bound, param_sets=False):
 
         def run(p):
             out = _over(stages, p, T, X, param_sets)
-            if stage == 6:
+            if stage >= 6:
                 return out
             # One number from the stage's outputs: computing them is timed, writing them
             # to memory (several n-element arrays) is not.
@@ -97,6 +100,8 @@ def _stages(model, T, X, bound, param_sets=False):
             f_h, _, gamma = m._branch(mo.x, s, x_e, h_e, s_e)
             if stage == 5:
                 return f_h, gamma
+            if stage == 6:
+                return m._simulate_jax(mo.consistent()).force
             return m._simulate(mo).force  # as `jaxfric.simulate` runs it on concrete data
 
         return run
@@ -107,11 +112,13 @@ def _stages(model, T, X, bound, param_sets=False):
         "3. + forward fill of the event records",
         "4. + branch-start forces (reversal list)",
         "5. + branch force F_h, gamma (shape)",
-        "6. + friction lag (= simulate)",
+        "6. + friction lag (= JAX path)",
+        "forward kernel (= simulate)",
     ]
     cases = {name: jax.jit(upto(i + 1)) for i, name in enumerate(names)}
     if T.ndim == 1 and not param_sets:
-        cases["jacfwd of simulate (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
+        cases["jacfwd, kernel (12 parameters)"] = jax.jit(jax.jacfwd(upto(7)))
+        cases["jacfwd, JAX path (12 parameters)"] = jax.jit(jax.jacfwd(upto(6)))
     return params, cases
 
 

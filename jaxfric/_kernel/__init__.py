@@ -1,27 +1,39 @@
-"""The two-state event pass as a compiled CPU kernel called through the XLA FFI.
+"""The two-state model's compiled CPU kernels, called through the XLA FFI.
 
-`events.cc` (shipped with the package) is the event loop of
-``jaxfric._models.two_state`` written as one C++ loop per trajectory, with the same
-float64 arithmetic, so that its records are bit-identical to the pure-JAX loop's
-(tests/core/test_event_kernel.py). It is compiled on first use with the system C++ compiler
-(``$CXX``, else ``c++``, ``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``,
-else ``$XDG_CACHE_HOME/jaxfric``, else ``~/.cache/jaxfric``), under a name keyed by a hash
-of the source, the jaxlib version and the compiler, loaded with ``ctypes`` and registered
-once per process with `jax.ffi.register_ffi_target`.
+Three handlers, compiled together into one shared library from the C++ sources shipped
+with the package (`SOURCES`):
 
-**When it is used** (`use_kernel`, when a program is traced): on the CPU backend, for
-float64 inputs. The environment variable ``JAXFRIC_EVENT_KERNEL`` chooses: ``jax`` always
-uses the pure-JAX event loop (the path on GPU/TPU); ``kernel`` requires the kernel (a
-failed build raises); unset or ``auto`` uses the kernel when it builds, else logs one line
-(logger ``jaxfric``) and uses the pure-JAX loop. `jaxfric.simulate` and
+* `events.cc`, the event pass: the event loop of ``jaxfric._models.two_state`` as one C++
+  loop per trajectory, with the same float64 arithmetic, so that its records are
+  bit-identical to the pure-JAX loop's (tests/core/test_event_kernel.py). The JAX path's
+  smooth pass runs on them; it is what ``grad`` and ``jacfwd`` differentiate.
+* `forward.cc`, the whole forward pass (velocity, events, branch forces, shape, lag: the
+  force of every sample), and the same loop on dual numbers (`dual.h`) for the Jacobian
+  with respect to the parameters; `jaxfric._kernel.forward` wraps them in a custom JVP
+  (tests/core/test_forward_kernel.py). Its exponentials and logarithms are vectorised a
+  block of samples at a time (`vmath.h`).
+
+The library is compiled on first use with the system C++ compiler (``$CXX``, else ``c++``,
+``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``, else
+``$XDG_CACHE_HOME/jaxfric``, else ``~/.cache/jaxfric``), under a name keyed by a hash of the
+sources, the jaxlib version and the compiler, loaded with ``ctypes`` and registered once
+per process with `jax.ffi.register_ffi_target`.
+
+**When they are used** (`use_kernel`, when a program is traced): on the CPU backend, for
+float64 inputs (the forward pass also needs a shape it implements, see
+`jaxfric._kernel.forward`). The environment variable ``JAXFRIC_EVENT_KERNEL`` chooses:
+``jax`` always uses the pure-JAX path (the path on GPU/TPU); ``kernel`` requires the
+kernels (a failed build raises); unset or ``auto`` uses them when they build, else logs
+one line (logger ``jaxfric``) and uses the pure-JAX path. `jaxfric.simulate` and
 `jaxfric.simulate_many` take the variable's value as part of their compilation cache key,
 so a change takes effect at their next call; other compiled programs (a fit's) keep the
 choice they were traced with.
 
-Under ``jax.vmap`` the call receives the batch (``vmap_method="expand_dims"``: an input
-not batched keeps a dimension of 1, which the kernel broadcasts rather than copies) and
-loops over it, on several threads when the batch is large. Its outputs are integers and
-its inputs are on stopped gradients, so ``grad`` and ``jacfwd`` never differentiate it.
+Under ``jax.vmap`` a call receives the batch (``vmap_method="expand_dims"``: an input not
+batched keeps a dimension of 1, which the kernel broadcasts rather than copies) and loops
+over it, on several threads when the batch is large (rows.h). The event pass's outputs are
+integers and its inputs are on stopped gradients, so ``grad`` and ``jacfwd`` never
+differentiate it.
 """
 
 import contextlib
@@ -43,7 +55,15 @@ import numpy as np
 
 TARGET = "jaxfric_event_pass"
 SYMBOL = "JaxfricEventPass"
-FLAGS = ("-O3", "-std=c++17", "-shared", "-fPIC", "-pthread", "-w")
+FORWARD_TARGET = "jaxfric_forward_pass"
+FORWARD_SYMBOL = "JaxfricForwardPass"
+FORWARD_JACOBIAN_TARGET = "jaxfric_forward_jacobian"
+FORWARD_JACOBIAN_SYMBOL = "JaxfricForwardJacobian"
+#: The sources compiled into one shared library (the .cc files) and the header they share.
+SOURCES = ("events.cc", "forward.cc", "rows.h", "dual.h", "vmath.h")
+#: -fno-trapping-math (floating-point exceptions are never enabled) lets the compiler turn the
+#: selects of the Stribeck pre-pass into SIMD code (vmath.h); values are unchanged.
+FLAGS = ("-O3", "-std=c++17", "-fno-trapping-math", "-shared", "-fPIC", "-pthread", "-w")
 ENV = "JAXFRIC_EVENT_KERNEL"
 
 _logger = logging.getLogger("jaxfric")
@@ -75,9 +95,9 @@ def forced(value: str):
             os.environ[ENV] = old
 
 
-def source() -> str:
-    """The kernel's C++ source."""
-    return resources.files(__package__).joinpath("events.cc").read_text()
+def source(name: str = "events.cc") -> str:
+    """The C++ source `name` (one of `SOURCES`)."""
+    return resources.files(__package__).joinpath(name).read_text()
 
 
 def find_compiler() -> str | None:
@@ -108,21 +128,22 @@ def build(directory: Path | None = None) -> Path:
     cxx = find_compiler()
     if cxx is None:
         raise RuntimeError("no C++ compiler found (set CXX, or install g++ or clang++)")
-    text = source()
+    texts = {name: source(name) for name in SOURCES}
     include = jax.ffi.include_dir()
     key = hashlib.sha256("\0".join(
-        [text, jax.__version__, _jaxlib_version(),
+        [*texts.values(), jax.__version__, _jaxlib_version(),
          cxx, _compiler_id(cxx), " ".join(FLAGS)]).encode()).hexdigest()[:16]
     folder = Path(directory) if directory is not None else cache_dir()
-    library = folder / f"events-{key}.so"
+    library = folder / f"kernels-{key}.so"
     if library.exists():
         return library
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
-        src = Path(tmp) / "events.cc"
-        src.write_text(text)
+        for name, text in texts.items():
+            (Path(tmp) / name).write_text(text)
         out = Path(tmp) / library.name
-        cmd = [cxx, *FLAGS, "-isystem", include, "-o", str(out), str(src)]
+        cmd = [cxx, *FLAGS, "-isystem", include, "-o", str(out),
+               *[str(Path(tmp) / name) for name in SOURCES if name.endswith(".cc")]]
         run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
         if run.returncode != 0:
             last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
@@ -143,8 +164,10 @@ def _jaxlib_version() -> str:
 def _register() -> None:
     library = build()
     lib = ctypes.cdll.LoadLibrary(str(library))
-    jax.ffi.register_ffi_target(TARGET, jax.ffi.pycapsule(getattr(lib, SYMBOL)),
-                                platform="cpu")
+    for target, symbol in ((TARGET, SYMBOL), (FORWARD_TARGET, FORWARD_SYMBOL),
+                           (FORWARD_JACOBIAN_TARGET, FORWARD_JACOBIAN_SYMBOL)):
+        jax.ffi.register_ffi_target(target, jax.ffi.pycapsule(getattr(lib, symbol)),
+                                    platform="cpu")
     _state["lib"] = lib  # keep it loaded
 
 

@@ -26,11 +26,16 @@
 #include <thread>
 #include <vector>
 
+#include "rows.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
 
 namespace {
+
+using jaxfric::for_rows;
+using jaxfric::lead_dims;
+using jaxfric::row_offsets;
 
 inline double safe_div(double num, double den) { return den == 0.0 ? 0.0 : num / den; }
 
@@ -131,40 +136,6 @@ void run_row(const Row& r, int64_t n, int32_t K) {
   *r.overflow = ovf;
 }
 
-// Offsets (in rows) of every output batch row into an input with batch dims `in` (numpy
-// broadcasting of leading dimensions; a dimension of 1 repeats).
-bool row_offsets(const std::vector<int64_t>& out, std::vector<int64_t> in,
-                 std::vector<int64_t>& offsets) {
-  if (in.size() > out.size()) return false;
-  in.insert(in.begin(), out.size() - in.size(), 1);
-  const size_t rank = out.size();
-  std::vector<int64_t> stride(rank, 0);
-  int64_t acc = 1;
-  for (size_t k = rank; k-- > 0;) {
-    if (in[k] != 1 && in[k] != out[k]) return false;
-    stride[k] = in[k] == 1 ? 0 : acc;
-    acc *= in[k];
-  }
-  int64_t rows = 1;
-  for (int64_t d : out) rows *= d;
-  offsets.assign(rows, 0);
-  for (int64_t b = 0; b < rows; ++b) {
-    int64_t rest = b, off = 0;
-    for (size_t k = rank; k-- > 0;) {
-      off += (rest % out[k]) * stride[k];
-      rest /= out[k];
-    }
-    offsets[b] = off;
-  }
-  return true;
-}
-
-template <typename B>
-std::vector<int64_t> lead_dims(const B& buf, size_t trailing) {
-  auto d = buf.dimensions();
-  return std::vector<int64_t>(d.begin(), d.end() - trailing);
-}
-
 ffi::Error EventPassImpl(ffi::Buffer<ffi::F64> x, ffi::Buffer<ffi::F64> s,
                          ffi::Buffer<ffi::PRED> rev, ffi::Buffer<ffi::F64> xp,
                          ffi::Buffer<ffi::F64> sr, ffi::Buffer<ffi::F64> l1,
@@ -199,21 +170,7 @@ ffi::Error EventPassImpl(ffi::Buffer<ffi::F64> x, ffi::Buffer<ffi::F64> s,
       run_row(r, n, K);
     }
   };
-  // A thread is worth starting (tens of microseconds) for a share of >= 2^16 samples.
-  const int64_t nthreads =
-      std::min<int64_t>(std::min<int64_t>(threads, rows), std::max<int64_t>(1, rows * n >> 16));
-  if (nthreads <= 1) {
-    work(0, rows);
-    return ffi::Error::Success();
-  }
-  std::vector<std::thread> pool;
-  const int64_t chunk = (rows + nthreads - 1) / nthreads;
-  for (int64_t t = 1; t < nthreads; ++t) {
-    const int64_t lo = t * chunk, hi = std::min(rows, lo + chunk);
-    if (lo < hi) pool.emplace_back(work, lo, hi);
-  }
-  work(0, std::min(rows, chunk));
-  for (auto& th : pool) th.join();
+  for_rows(rows, n, threads, 16, work);
   return ffi::Error::Success();
 }
 

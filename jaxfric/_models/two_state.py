@@ -26,6 +26,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .. import _kernel
 from .._fields import param
+from .._kernel import forward as _forward_kernel
 from .._numerics import linear_recurrence, running_max, running_sum, safe_div
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
@@ -289,7 +290,15 @@ class TwoState(AbstractFrictionModel):
     # ---- whole trajectory -------------------------------------------------------------
 
     def _simulate(self, motion: Motion) -> SimResult:
-        motion = motion.consistent()
+        if type(self) is TwoState and _forward_kernel.supported(self, motion.t, motion.x, motion.v):
+            force, parts, overflow = _forward_kernel.simulate(  # compiled, on the CPU
+                self, motion.t, motion.x, motion.v, motion.max_reversals)
+            return SimResult(force=force, parts=parts, overflow=overflow)
+        return self._simulate_jax(motion.consistent())
+
+    def _simulate_jax(self, motion: Motion) -> SimResult:
+        """`_simulate` of a consistent `motion` in JAX (the path on GPU/TPU, and the JVP
+        rule of the compiled forward pass, `jaxfric._kernel.forward`)."""
         s, rec = self._stage_events(motion)
         active, depth, popped_until = _fill_records(rec)
         h_e = self._stage_branch_starts(motion, rec, popped_until)

@@ -1,8 +1,8 @@
 """The two-state event pass as a compiled CPU kernel (`jaxfric._kernel`) against the pure-JAX
 event loop: records bit-identical on motions with dense reversals, nested loops, standstill
-and memory overflow, one by one and batched under ``vmap``; `simulate`, ``grad`` and
-``jacfwd`` the same with both paths; the fallback when forced or when there is no compiler;
-the kernel the default on the CPU."""
+and memory overflow, one by one and batched under ``vmap``; the JAX path's forces, ``grad``
+and ``jacfwd`` the same with both event passes; the fallback when forced or when there is no
+compiler; the kernel the default on the CPU."""
 
 import logging
 
@@ -163,11 +163,18 @@ def test_nested_vmap_with_shared_motion(monkeypatch):
     _assert_same(got, want)
 
 
+def _simulate_jax(model, t, x):
+    """The JAX path of a simulation (`TwoState._simulate_jax`): its event pass is the
+    kernel or the JAX loop, its smooth pass is JAX either way (`jaxfric.simulate` itself runs
+    the forward kernel on the CPU, tests/core/test_forward_kernel.py)."""
+    return model._simulate_jax(make_motion(jnp.asarray(t), jnp.asarray(x)).consistent()).force
+
+
 def _forces_and_derivatives(model, t, x):
     params, static = eqx.partition(model, eqx.is_inexact_array)
 
     def force(p):
-        return jaxfric.simulate(eqx.combine(p, static), t, x)
+        return _simulate_jax(eqx.combine(p, static), t, x)
 
     def loss(p):
         return jnp.sum(force(p) ** 2)
@@ -198,9 +205,9 @@ def test_vmap_of_simulate_and_of_grad(monkeypatch):
     params, static = eqx.partition(model, eqx.is_inexact_array)
 
     def run(p, T, X):
-        sim = jax.vmap(lambda t, x: jaxfric.simulate(eqx.combine(p, static), t, x))
+        sim = jax.vmap(lambda t, x: _simulate_jax(eqx.combine(p, static), t, x))
         return sim(T, X), jax.vmap(jax.grad(
-            lambda q, t, x: jnp.sum(jaxfric.simulate(eqx.combine(q, static), t, x))),
+            lambda q, t, x: jnp.sum(_simulate_jax(eqx.combine(q, static), t, x))),
             in_axes=(None, 0, 0))(p, T, X)
 
     want = _records("jax", monkeypatch, run, params, T, X)

@@ -1,0 +1,477 @@
+// The two-state model's whole forward pass as an XLA FFI handler for the CPU (jaxfric/_kernel).
+//
+// One loop per trajectory computes what `TwoState._simulate` computes from a motion
+// (t, x[, v]): the velocity and directions (`jaxfric.motion.make_motion`, `consistent`),
+// the Stribeck values, the event pass (as events.cc: Rule 1 with wiping-out and overflow,
+// the Rules 2-3 cascade), the branch-start force h of every pushed entry, F_h (Eq. 32) with
+// the shape's Pi and gamma, the friction lag (`TwoState._lag_coefficients`), and
+// F = F_h + F_l + sigma2*v. The discrete decisions are the same comparisons as the JAX
+// event pass's; the forces agree with the JAX path to rounding (~1e-15 relative: the
+// exponentials and logarithms (vmath.h, libm) differ from XLA's in the last bits, and h is
+// summed along the stack instead of by prefix sums). A second handler runs the same loop on
+// dual numbers (dual.h) and also returns the Jacobians of F and F_h with respect to the
+// 12 parameters: the Python side's custom JVP rule (jaxfric/_kernel/forward.py).
+//
+// Inputs: t, x, v (..., n) float64 (v the given velocity, made consistent with the steps
+// as `jaxfric.motion.consistent_velocity`; unused with has_v = 0: the backward difference
+// of x); params (..., 12) float64:
+//   Fs, Fc, Vs, delta, sigma2, C, l1, q0, q1, q2, q3, q4 with the shape coordinates q:
+//   shape 0 (PaperShape): a, b, c, alpha, beta; 1 (PowerShape): n;
+//   2 (NormalizedPaperShape): alpha, beta_rel, curvature, quartic.
+// Attributes: shape, stack_size K, limit (the static reversal bound; -1 none), has_v, threads.
+// Outputs: force, hysteresis, lag, viscous (..., n) float64, depth (..., n) int32 (depth after
+// the sample's events), overflow (...) int32 (entries dropped, plus the reversals beyond
+// `limit`; then F_h and F_l are NaN, as in the JAX path). Leading dimensions broadcast as in
+// events.cc (a batch dimension of 1 repeats).
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+#include <vector>
+
+#include "dual.h"
+#include "rows.h"
+#include "vmath.h"
+#include "xla/ffi/api/ffi.h"
+
+namespace ffi = xla::ffi;
+
+namespace {
+
+using jaxfric::for_rows;
+using jaxfric::lead_dims;
+using jaxfric::row_offsets;
+
+using jaxfric::Dual;
+using jaxfric::value;
+using std::exp;
+using std::expm1;
+using std::fabs;
+using std::log;
+
+//: Entries of the packed parameter vector.
+constexpr int kParams = 12;
+using D = Dual<kParams>;
+
+// `jaxfric._numerics.safe_div`: num / den, and 0 (with no derivative) where den == 0.
+template <typename A, typename B>
+inline auto safe_div(const A& num, const B& den) -> decltype(num / den) {
+  using R = decltype(num / den);
+  return value(den) == 0.0 ? R(0.0) : num / den;
+}
+
+// `jaxfric._numerics.safe_pow`: exp(p*log(x)) for x > 0, else 0.
+template <typename A, typename B>
+inline auto spow(const A& x, const B& p) -> decltype(p * x) {
+  using R = decltype(p * x);
+  return value(x) > 0.0 ? R(exp(p * log(x))) : R(0.0);
+}
+
+template <typename T>
+struct Shape {
+  int kind;
+  T l1, Fs;
+  T a, b, c, alpha, beta, bb, ea, big_x, f_big_x;  // paper
+  T n;                                             // power
+  T br, lo, span, k, q;                            // normalized
+  bool small;
+};
+
+template <typename T>
+T saw(const Shape<T>& sh, const T& z) {
+  return -sh.ea * expm1(sh.b * (spow(z + sh.beta, sh.alpha) - sh.bb)) - sh.c * (z * z * z * z);
+}
+
+template <typename T>
+Shape<T> make_shape(int kind, const T* p) {
+  Shape<T> sh{};
+  sh.kind = kind;
+  sh.Fs = p[0];
+  sh.l1 = p[6];
+  if (kind == 0) {
+    sh.a = p[7];
+    sh.b = p[8];
+    sh.c = p[9];
+    sh.alpha = p[10];
+    sh.beta = p[11];
+    sh.bb = spow(sh.beta, sh.alpha);
+    sh.ea = sh.a * exp(sh.b * sh.bb);
+    sh.big_x = 2.0 * sh.Fs * sh.l1;
+    sh.f_big_x = saw(sh, sh.big_x);
+  } else if (kind == 1) {
+    sh.n = p[7];
+  } else {
+    sh.alpha = p[7];
+    sh.br = p[8];
+    sh.k = p[9];
+    sh.q = p[10];
+    sh.lo = spow(sh.br, sh.alpha);
+    sh.span = spow(1.0 + sh.br, sh.alpha) - sh.lo;
+    sh.small = fabs(value(sh.k)) < 1e-6;  // `_normalized_shape._SMALL`
+  }
+  return sh;
+}
+
+// The profile P(u) and dP/du on u = xi/l1 in [0, 1) (`AbstractShape._profile`).
+template <typename T>
+void profile(const Shape<T>& sh, const T& u, T& P, T& dP) {
+  if (sh.kind == 0) {
+    const T z = sh.big_x * u, zb = z + sh.beta;
+    const T pw = spow(zb, sh.alpha);
+    const T e = sh.b * (pw - sh.bb);
+    const T z3 = z * z * z;
+    const T num = -sh.ea * expm1(e) - sh.c * (z3 * z);
+    const T dpw = value(zb) > 0.0 ? T(sh.alpha * pw / zb) : T(0.0);
+    const T dnum = -sh.ea * exp(e) * sh.b * dpw - 4.0 * sh.c * z3;
+    P = safe_div(num, sh.f_big_x);
+    dP = safe_div(dnum * sh.big_x, sh.f_big_x);
+  } else if (sh.kind == 1) {
+    const T w = 1.0 - u;
+    const T y = spow(w, sh.n);
+    P = 1.0 - y;
+    dP = value(w) > 0.0 ? T(sh.n * y / w) : T(0.0);
+  } else {
+    const T ub = u + sh.br;
+    const T pw = spow(ub, sh.alpha);
+    const T w = safe_div(pw - sh.lo, sh.span);
+    const T dw =
+        (value(ub) > 0.0 && value(sh.span) != 0.0) ? T(sh.alpha * pw / ub / sh.span) : T(0.0);
+    T R, dR;
+    if (sh.small) {
+      R = w * (1.0 + 0.5 * sh.k * (1.0 - w));
+      dR = 1.0 + 0.5 * sh.k * (1.0 - 2.0 * w);
+    } else {
+      const T den = expm1(-sh.k);
+      R = expm1(-sh.k * w) / den;
+      dR = -sh.k * exp(-sh.k * w) / den;
+    }
+    const T u3 = u * u * u;
+    P = (R - sh.q * (u3 * u)) / (1.0 - sh.q);
+    dP = (dR * dw - 4.0 * sh.q * u3) / (1.0 - sh.q);
+  }
+}
+
+// Pi and kappa at xi (clipped to >= 0 first; `AbstractShape.pi_kappa_gamma`); xi is
+// replaced by the clipped value.
+template <typename T>
+void pi_kappa(const Shape<T>& sh, T& xi, T& p, T& k) {
+  if (!(value(xi) >= 0.0)) xi = T(0.0);
+  if (!(value(xi) < value(sh.l1))) {
+    p = T(1.0);
+    k = T(0.0);
+    return;
+  }
+  T P, dP;
+  profile(sh, T(safe_div(xi, sh.l1)), P, dP);
+  if (value(P) < 1.0) {
+    p = P;
+    k = value(sh.l1) != 0.0 ? T(dP / sh.l1) : T(0.0);
+  } else {
+    p = T(1.0);
+    k = T(0.0);
+  }
+}
+
+template <typename T>
+T pi_only(const Shape<T>& sh, T xi) {
+  T p, k;
+  pi_kappa(sh, xi, p, k);
+  return p;
+}
+
+struct Row {
+  const double* t;
+  const double* x;
+  const double* v;  // the given velocity, or unused (has_v false)
+  bool has_v;
+  const double* p;
+  double* force;
+  double* hyst;
+  double* lag;
+  double* viscous;
+  int32_t* depth;
+  int32_t* overflow;
+  double* jac_hyst;  // (n, kParams) with T = D, else unused
+  double* jac_force;
+};
+
+inline double sgn(double v) { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
+
+inline void store(double* out, double* jac, int64_t j, double y) {
+  out[j] = y;
+  (void)jac;
+}
+inline void store(double* out, double* jac, int64_t j, const D& y) {
+  out[j] = y.v;
+  std::copy(y.d, y.d + kParams, jac + j * kParams);
+}
+
+// One trajectory; T = double for the forces, T = D for the forces and their Jacobian with
+// respect to the packed parameters.
+template <typename T>
+void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
+  T p[kParams];
+  for (int k = 0; k < kParams; ++k) {
+    if constexpr (std::is_same_v<T, double>) {
+      p[k] = r.p[k];
+    } else {
+      p[k] = T::input(r.p[k], k);
+    }
+  }
+  const T Fs = p[0], Fc = p[1], Vs = p[2], delta = p[3], sigma2 = p[4], C = p[5];
+  const double l1 = value(p[6]);
+  const T dfs = Fs - Fc;
+  const Shape<T> sh = make_shape(kind, p);
+  std::vector<double> X(K, 0.0), TH(K, 0.0), SV(K, 0.0);
+  std::vector<T> H(K, T(0.0)), S(K, T(0.0));
+  std::vector<char> CL(K, 0);
+  X[0] = r.x[0];
+  int32_t base = 0, depth = 1, ovf = 0;
+  bool zero_bottom = true;
+  double last_d = 0.0;
+  T s_prev(0.0), lag(0.0);
+  int64_t reversals = 0;
+  // With T = double the Stribeck magnitudes and the lag's decays come from the vectorised
+  // pre-pass (vmath.h), a block of samples at a time.
+  constexpr bool pre = std::is_same_v<T, double>;
+  constexpr int64_t kBlock = 256;
+  double vel[pre ? kBlock : 1], mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
+  double stribeck[5] = {value(Fs), value(Fc), value(Vs), value(delta), value(C)};
+  for (int64_t j = 0; j < n; ++j) {
+    const int64_t i = j % kBlock;
+    if constexpr (pre) {
+      if (i == 0) {
+        jaxfric::stribeck_block(r.t, r.x, r.v, r.has_v, j, std::min(kBlock, n - j), stribeck,
+                                vel, mag, decay);
+      }
+    }
+    const double xj = r.x[j];
+    const double x_prev = j > 0 ? r.x[j - 1] : r.x[0];
+    const double dt = j > 0 ? r.t[j] - r.t[j - 1] : 0.0;
+    double vj;
+    if constexpr (pre) {
+      vj = vel[i];
+    } else {
+      vj = j > 0 ? jaxfric::motion_velocity(dt, xj - x_prev, r.v[j], r.has_v)
+                 : (r.has_v ? r.v[0] : 0.0);
+    }
+    const double d = sgn(vj);
+    const bool moving = d != 0.0;
+    const double prev_last_d = last_d;
+    if (moving) last_d = d;
+    // `Stribeck.effective`
+    T s;
+    if (vj != 0.0) {
+      if constexpr (pre) {
+        s = d * mag[i];
+      } else {
+        const T u = safe_div(fabs(vj), Vs);
+        s = d * (Fc + dfs * exp(-spow(u, delta)));
+      }
+    } else {
+      s = last_d * Fs;
+    }
+    const double sv = value(s);
+    const bool reversal = moving && prev_last_d != 0.0 && d != prev_last_d;
+    int32_t top = (base + depth - 1) % K;
+    bool event = reversal;
+    if (!event) {  // `TwoState._top_closes`
+      event = depth >= 2 && CL[top] && (depth >= 3 || zero_bottom) &&
+              safe_div(xj - X[top], sv - SV[top]) >= TH[top];
+    }
+    if (event) {
+      if (reversal) {  // `TwoState._push`
+        ++reversals;
+        const double x_r = x_prev;
+        const T s_r = prev_last_d * Fs;
+        const T den = s_r - S[top];
+        const T h_r = H[top] + pi_only(sh, T(safe_div(x_r - X[top], den))) * den;
+        const double theta = safe_div(fabs(x_r - X[top]), fabs(value(den)));
+        const bool wipe = theta > l1;
+        int32_t nb = wipe ? top : base;
+        int32_t nd = (wipe ? 1 : depth) + 1;
+        const bool over = nd > K;
+        if (over) {
+          nb = (nb + 1) % K;
+          nd = K;
+        }
+        const int32_t slot = (nb + nd - 1) % K;
+        X[slot] = x_r;
+        H[slot] = h_r;
+        S[slot] = s_r;
+        SV[slot] = value(s_r);
+        TH[slot] = theta;
+        CL[slot] = theta <= l1;
+        if (over || (wipe && depth > 1)) zero_bottom = false;
+        ovf += over ? 1 : 0;
+        base = nb;
+        depth = nd;
+      }
+      // `TwoState._close`
+      int32_t lowest = -1;
+      for (int32_t level = depth - 1; level >= 1; level -= 2) {
+        const int32_t sl = (base + level) % K;
+        const bool valid = CL[sl] && (level >= 2 || zero_bottom);
+        if (valid && safe_div(xj - X[sl], sv - SV[sl]) >= TH[sl]) {
+          lowest = level;
+        } else {
+          break;
+        }
+      }
+      if (lowest >= 1) depth = (lowest == 1 ? 0 : lowest - 2) + 1;
+      top = (base + depth - 1) % K;
+    }
+    // `TwoState._branch`
+    const T den = s - S[top];
+    T xi = safe_div(xj - X[top], den);
+    T pi, kappa;
+    pi_kappa(sh, xi, pi, kappa);
+    const T gamma = pi - xi * kappa;
+    const T f_h = H[top] + pi * den;
+    // `TwoState._lag_coefficients`
+    T a;
+    if (reversal) {
+      a = T(0.0);
+    } else if (moving) {
+      if constexpr (pre) {
+        a = decay[i];
+      } else {
+        a = exp(-C * safe_div(dt, fabs(s)));
+      }
+    } else {
+      a = T(1.0);
+    }
+    // A direction-change step (a reversal or the first motion) charges nothing.
+    const T b = (moving && d != prev_last_d) ? T(0.0) : T(-gamma * (s - s_prev));
+    lag = a * lag + b;
+    const T visc = sigma2 * vj;
+    store(r.force, r.jac_force, j, T(f_h + lag + visc));
+    store(r.hyst, r.jac_hyst, j, f_h);
+    r.lag[j] = value(lag);
+    r.viscous[j] = value(visc);
+    r.depth[j] = depth;
+    s_prev = s;
+  }
+  if (limit >= 0 && reversals > limit) {  // a bound below the true count: NaN, counted
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::fill(r.hyst, r.hyst + n, nan);
+    std::fill(r.lag, r.lag + n, nan);
+    std::fill(r.force, r.force + n, nan);
+    if constexpr (!std::is_same_v<T, double>) {  // as the JAX path's where(fits, F, nan)
+      std::fill(r.jac_hyst, r.jac_hyst + n * kParams, 0.0);
+      std::fill(r.jac_force, r.jac_force + n * kParams, 0.0);
+    }
+    ovf += static_cast<int32_t>(reversals - limit);
+  }
+  *r.overflow = ovf;
+}
+
+// Both handlers: the forces, and with T = D also Jacobians (jac_force, jac_hyst).
+template <typename T>
+ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer<ffi::F64> v,
+                   ffi::Buffer<ffi::F64> params, double* force, double* hyst, double* lag,
+                   double* viscous, int32_t* depth, ffi::ResultBuffer<ffi::S32>& overflow,
+                   double* jac_force, double* jac_hyst, int64_t shape, int64_t stack_size,
+                   int64_t limit, int64_t has_v, int64_t threads) {
+  auto xd = x.dimensions();
+  if (xd.size() < 1) return ffi::Error::InvalidArgument("forward pass: x must have rank >= 1");
+  const int64_t n = xd.back();
+  const int32_t K = static_cast<int32_t>(stack_size);
+  if (n < 1 || K < 1) return ffi::Error::InvalidArgument("forward pass: empty input");
+  if (shape < 0 || shape > 2) return ffi::Error::InvalidArgument("forward pass: bad shape");
+  if (params.dimensions().back() != kParams) {
+    return ffi::Error::InvalidArgument("forward pass: params must have 12 entries");
+  }
+  if (t.dimensions().back() != n || v.dimensions().back() != n) {
+    return ffi::Error::InvalidArgument("forward pass: lengths differ");
+  }
+  const std::vector<int64_t> out = lead_dims(*overflow, 0);
+  std::vector<int64_t> ot, ox, ov, op;
+  const bool ok = row_offsets(out, lead_dims(t, 1), ot) && row_offsets(out, lead_dims(x, 1), ox) &&
+                  row_offsets(out, lead_dims(v, 1), ov) &&
+                  row_offsets(out, lead_dims(params, 1), op);
+  if (!ok) return ffi::Error::InvalidArgument("forward pass: batch dimensions do not broadcast");
+  const int64_t rows = static_cast<int64_t>(ox.size());
+  const int kind = static_cast<int>(shape);
+  const int64_t m = jac_force ? n * kParams : 0;
+  auto work = [&](int64_t lo, int64_t hi) {
+    for (int64_t b = lo; b < hi; ++b) {
+      Row r{t.typed_data() + ot[b] * n,
+            x.typed_data() + ox[b] * n,
+            v.typed_data() + ov[b] * n,
+            has_v != 0,
+            params.typed_data() + op[b] * kParams,
+            force + b * n,
+            hyst + b * n,
+            lag + b * n,
+            viscous + b * n,
+            depth + b * n,
+            overflow->typed_data() + b,
+            jac_hyst ? jac_hyst + b * m : nullptr,
+            jac_force ? jac_force + b * m : nullptr};
+      run_row<T>(r, n, K, kind, limit);
+    }
+  };
+  // A share of 2^14 samples is about a millisecond of work at tens of ns per sample.
+  for_rows(rows, n, threads, 14, work);
+  return ffi::Error::Success();
+}
+
+ffi::Error ForwardImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
+                       ffi::Buffer<ffi::F64> v, ffi::Buffer<ffi::F64> params,
+                       ffi::ResultBuffer<ffi::F64> force, ffi::ResultBuffer<ffi::F64> hyst,
+                       ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::F64> viscous,
+                       ffi::ResultBuffer<ffi::S32> depth, ffi::ResultBuffer<ffi::S32> overflow,
+                       int64_t shape, int64_t stack_size, int64_t limit, int64_t has_v,
+                       int64_t threads) {
+  return Forward<double>(t, x, v, params, force->typed_data(), hyst->typed_data(),
+                         lag->typed_data(), viscous->typed_data(), depth->typed_data(),
+                         overflow, nullptr, nullptr, shape, stack_size, limit, has_v, threads);
+}
+
+ffi::Error ForwardJacImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
+                          ffi::Buffer<ffi::F64> v, ffi::Buffer<ffi::F64> params,
+                          ffi::ResultBuffer<ffi::F64> force, ffi::ResultBuffer<ffi::F64> hyst,
+                          ffi::ResultBuffer<ffi::F64> lag, ffi::ResultBuffer<ffi::F64> viscous,
+                          ffi::ResultBuffer<ffi::S32> depth, ffi::ResultBuffer<ffi::S32> overflow,
+                          ffi::ResultBuffer<ffi::F64> jac_force,
+                          ffi::ResultBuffer<ffi::F64> jac_hyst, int64_t shape,
+                          int64_t stack_size, int64_t limit, int64_t has_v, int64_t threads) {
+  return Forward<D>(t, x, v, params, force->typed_data(), hyst->typed_data(),
+                    lag->typed_data(), viscous->typed_data(), depth->typed_data(), overflow,
+                    jac_force->typed_data(), jac_hyst->typed_data(), shape, stack_size, limit,
+                    has_v, threads);
+}
+
+}  // namespace
+
+#define JAXFRIC_FORWARD_ARGS                         \
+  ffi::Ffi::Bind()                                   \
+      .Arg<ffi::Buffer<ffi::F64>>() /* t */          \
+      .Arg<ffi::Buffer<ffi::F64>>() /* x */          \
+      .Arg<ffi::Buffer<ffi::F64>>() /* v */          \
+      .Arg<ffi::Buffer<ffi::F64>>() /* params */     \
+      .Ret<ffi::Buffer<ffi::F64>>() /* force */      \
+      .Ret<ffi::Buffer<ffi::F64>>() /* hysteresis */ \
+      .Ret<ffi::Buffer<ffi::F64>>() /* lag */        \
+      .Ret<ffi::Buffer<ffi::F64>>() /* viscous */    \
+      .Ret<ffi::Buffer<ffi::S32>>() /* depth */      \
+      .Ret<ffi::Buffer<ffi::S32>>() /* overflow */
+
+#define JAXFRIC_FORWARD_ATTRS     \
+  .Attr<int64_t>("shape")         \
+      .Attr<int64_t>("stack_size") \
+      .Attr<int64_t>("limit")      \
+      .Attr<int64_t>("has_v")      \
+      .Attr<int64_t>("threads")
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JaxfricForwardPass, ForwardImpl,
+                              JAXFRIC_FORWARD_ARGS JAXFRIC_FORWARD_ATTRS);
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JaxfricForwardJacobian, ForwardJacImpl,
+                              JAXFRIC_FORWARD_ARGS
+                                  .Ret<ffi::Buffer<ffi::F64>>()  // d force / d params
+                                  .Ret<ffi::Buffer<ffi::F64>>()  // d hysteresis / d params
+                                      JAXFRIC_FORWARD_ATTRS);
