@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import fitting
-from fitting._diagnose_cv import diagnose_cv
+from fitting import diagnose as diagnose_cv
 from jaxfric import synthetic
 
 

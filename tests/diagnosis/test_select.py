@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 import jaxfric
-from fitting import _select as S
-from fitting._diagnose_cv import diagnose_cv
+from fitting import _select as S, diagnose as diagnose_cv
 from fitting._rules import DiagnosisRules
 from jaxfric import effects as fx
 
