@@ -112,9 +112,11 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     new = sorted(o.on - current.on)
     effect = o.fitted.effects[new[0]] if new else None
     judged = np.isfinite(o.z)
+    worth = o.sse < current.sse - o.optimism
     why = (f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
-              "; not cross-validated (not among the best training fits)")
+              "; not cross-validated (not among the best training fits)" if worth else
+              "; not cross-validated (no more than fitting noise removes, 2 q s^2)")
            + (f"; not physical: {o.physical}" if o.physical else ""))
     if effect is not None:
         why = f"{effect.describe()}; {why}"

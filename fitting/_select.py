@@ -10,21 +10,23 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 
 **Each round** (forward selection):
 
-1. each option is fitted jointly with the base model to convergence on every sample: its
-   nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term best
-   regresses the current residual, its linear ones at that regression's values, the base
-   model's at the *starting* model's (a fitted base model has bent its Stribeck curve and
-   viscous term around the missing effect, a poor start for the refit);
-2. the `tried` options with the lowest training error are cross-validated: refitted from
-   their starts with each fold held out in turn (`folds`, a plain list of
-   ``(train_weights, test_weights)``; `time_block_folds` makes the default), a searched
-   nonlinear parameter's grid start picked again on the fold's training samples; so is
-   the current model;
+1. each option is fitted jointly with the current model to convergence on every sample:
+   its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
+   best regresses the current residual, its linear ones at that regression's values, the
+   rest of the model at the current fit;
+2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
+   q added coordinates remove when they fit only noise) is not cross-validated; of the
+   others, the `tried` with the lowest training error are: refitted with each fold held
+   out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
+   `time_block_folds` makes the default), each from the current model's own fit on that
+   fold's training samples, its grid start picked again on those samples
+   (`Fitter.cross_validate_nested`); a base-model option, which does not contain the
+   current model, is refitted from its own start (`Fitter.cross_validate`);
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, and every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
    option with the largest gain is added;
-4. when none qualifies, the pairs of the `tried` options are refitted and judged the same.
+4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
 """
@@ -85,6 +87,7 @@ class Option:
     physical: str = ""  # "" when physical, else why not
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     fold_preds: list = dataclasses.field(default_factory=list)
+    fold_models: list = dataclasses.field(default_factory=list)
 
     @property
     def name(self) -> str:
@@ -134,24 +137,26 @@ class Fitter:
         self.last = res
         return res.fit_model, d.simulate(res.fit_model)
 
-    def cross_validate_searched(self, option: Option, current: Option, folds,
-                                new: dict) -> None:
-        """As `cross_validate` for an option adding effects (`new`: slot index -> effect
-        name): each fold picks its own grid start on its training samples, from the current
-        model's residual with that fold held out (a grid point picked on all samples has
-        seen the held-out blocks)."""
+    def cross_validate_nested(self, option: Option, current: Option, folds,
+                              new: dict) -> None:
+        """Refit `option` (the current model plus the effects `new`: slot index -> effect
+        name) with each fold held out, starting from the current model's own fit on that
+        fold's training samples, the new effects at their start picked on those samples
+        only (`start_effect` on that fit's residual): nested and paired, so the held-out
+        difference is the effects', not a different optimum of the base model's, and
+        nothing was fitted on the held-out blocks."""
         if option.fold_preds:
             return
-        s = _signals(self.data, current.fitted.without_effects())
-        preds = []
         for k, (train, _) in enumerate(folds):
-            model = option.model
+            model = current.fold_models[k]
             resid = self.data.F - current.fold_preds[k]
+            s = _signals(self.data, model.without_effects())
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            preds.append(self.fit(model, option.on, train)[1])
-        option.fold_preds = preds
+            fitted, pred = self.fit(model, option.on, train)
+            option.fold_models.append(fitted)
+            option.fold_preds.append(pred)
 
     def cross_validate(self, option: Option, folds) -> None:
         """Refit `option` from its start (`option.model`) with each fold held out. Not
@@ -159,8 +164,10 @@ class Fitter:
         solver's tolerance test), leaving the held-out blocks predicted by a model that
         was fitted on them."""
         if not option.fold_preds:
-            option.fold_preds = [self.fit(option.model, option.on, train)[1]
-                                 for train, _ in folds]
+            for train, _ in folds:
+                fitted, pred = self.fit(option.model, option.on, train)
+                option.fold_models.append(fitted)
+                option.fold_preds.append(pred)
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
@@ -219,7 +226,6 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                 continue
             eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
-            model = eqx.tree_at(lambda m: m.base, model, plain)  # the starting base
             options.append(Option((n,), model, current.on | {i}))
         if not switched:
             for bname, bmodel in base_options():
@@ -245,9 +251,6 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         if chosen is None:
             break
         switched |= chosen.base
-        if chosen.base:
-            superset = chosen.fitted
-            plain = superset.without_effects()
         current = chosen
     return rounds
 
@@ -290,7 +293,7 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
         if names and not o.base:
-            fitter.cross_validate_searched(o, current, folds, names)
+            fitter.cross_validate_nested(o, current, folds, names)
         else:
             fitter.cross_validate(o, folds)
         judge(o, current, folds, fitter.data.F)
