@@ -340,7 +340,8 @@ def _parser() -> argparse.ArgumentParser:
                     help="every file's row, JSON (default: %(default)s)")
     ap.add_argument("--summary", help=f"the summary JSON (default: {SUMMARY}; with --quick "
                     "or --only: next to --out)")
-    ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
+    ap.add_argument("--only", help="comma-separated hidden effects: run the files whose "
+                    "hidden effects are all among them (and the clean files)")
     ap.add_argument("--truths", help="comma-separated truths (default: "
                     f"{', '.join(BENCH_TRUTHS)}; "
                     "--quick: the first)")
@@ -390,7 +391,7 @@ def main(argv=None) -> int:
                       floats(args.rates), floats(args.noises), args.start, options or None)
     if args.only:
         keep = set(args.only.split(","))
-        todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
+        todo = [c for c in todo if set(c["hidden"]) <= keep]
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()

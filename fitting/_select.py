@@ -25,7 +25,9 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, and every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
-   option with the largest gain is added;
+   option with the largest ``z`` is added (the strongest evidence first, as forward
+   selection by the partial F statistic: a base-model change that removes more error
+   less consistently does not push out an effect the data support more firmly);
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
@@ -287,7 +289,7 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
 
 
 def _cross_validate(fitter, current, options, folds, rules, log):
-    """Cross-validate `current` and `options`; the qualifying one of largest gain."""
+    """Cross-validate `current` and `options`; the qualifying one of largest ``z``."""
     fitter.cross_validate(current, folds)
     for o in options:
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
@@ -300,4 +302,4 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else ""))
     good = [o for o in options if o.z >= rules.z and not o.physical]
-    return max(good, key=lambda o: o.gain) if good else None
+    return max(good, key=lambda o: o.z) if good else None

@@ -1,4 +1,4 @@
-"""The diagnosis by full refits and blocked cross-validation (`fitting._diagnose_cv`) on
+"""The diagnosis by full refits and blocked cross-validation (`fitting.diagnose`) on
 files jaxfric did not make with its own families: a 60-element GMS truth with a power-law
 virgin curve (`jaxfric.synthetic`), point-to-point moves with short strong accelerations
 (2 ms sampling, position only: the velocity is derived), and today's diagnosis motion.
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import fitting
-from fitting import diagnose as diagnose_cv
+from fitting import diagnose
 from jaxfric import synthetic
 
 
@@ -22,7 +22,7 @@ def _p2p(hidden):
 
 def _diagnose(t, x, F):
     start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
-    return diagnose_cv(start, t, x, F, model_name="two-state")
+    return diagnose(start, t, x, F, model_name="two-state")
 
 
 def _true_mass(t_fine_dt=2e-4):
