@@ -27,7 +27,9 @@ class Step:
 class Diagnosis:
     """Outcome of `fitting.diagnose`: `baseline` and `steps` (one `Step` per addition),
     `rankings` (every option of each round, `rankings[0]` on the baseline; an option
-    cross-validated has its held-out gain as ``score`` and its ``z``), and the final model."""
+    cross-validated has its held-out gain as ``score`` and its ``z``), `holdout` (all
+    False: no sample is set aside, the cross-validation holds every sample out once), and
+    the final model."""
 
     baseline: Step
     steps: list[Step]
