@@ -188,6 +188,7 @@ def test_bad_input_one_line_error_exit_2_nothing_written(tmp_path, kind):
     assert list(tmp_path.iterdir()) == ([path] if text is not None else [])
 
 
+@pytest.mark.slow  # a whole diagnosis: every candidate refitted, the best cross-validated
 def test_diagnose_json_schema_and_report(tmp_path):
     """A Tustin measurement with a hidden 1 N offset: the JSON has the documented schema,
     the candidates are sorted by score, the offset is found and added, the error falls,
