@@ -109,10 +109,11 @@ def section_diagnosis(d: dict) -> list[str]:
          s[0] >= targets["singles"] * s[1]),
         ("the same, leaving out the absorbed", _ratio(*sl), "", None),
         ("both effects of a pair found", _ratio(*p), f">= {100 * targets['pairs']:.0f} %",
-         p[0] >= targets["pairs"] * p[1]),
+         p[0] >= targets["pairs"] * p[1] if p[1] else None),
         ("the same, leaving out pairs with an effect absorbed alone", _ratio(*pl), "", None),
         ("effects added on clean files", clean, "0", clean == 0),
-        ("half the excess error removed when found", _ratio(*h), "every file", h[0] == h[1]),
+        ("half the excess error removed when found", _ratio(*h), "every file",
+         h[0] == h[1] if h[1] else None),
     ]
     per_corner = [[f"{1e3 * c['dt_s']:g}", f"{c['noise_N']:g}", c["start"],
                    c.get("motion", "diagnosis"), ", ".join(c["truths"]),
