@@ -21,6 +21,7 @@ import numpy as np
 from jaxfric import effects as fx
 
 from ._candidates import _code, Candidate
+from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
 from ._diagnosis import Diagnosis, Step
 from ._fit import fit
@@ -78,7 +79,9 @@ def _record(t, x, F, v, a, load, derivatives, velocity_window) -> tuple[Data, st
         v = _checked("v", v, t)
         a_est = estimate_acceleration(t, v, derivatives, velocity_window)
     a = a_est if a is None else _checked("a", a, t)
-    return Data(t, x, np.asarray(v, np.float64), F, a, _checked("load", load, t)), how
+    load = _checked("load", load, t)
+    check_dataset(Dataset(t=t, x=x, F=F, v=v, load=load, a=a))  # one clear error, early
+    return Data(t, x, np.asarray(v, np.float64), F, a, load), how
 
 
 def _prune(model, on):
