@@ -8,7 +8,7 @@ CSV and diagnosed by the command line in a fresh process, twice: first with an e
 compilation cache (``JAXFRIC_CACHE_DIR`` set to a new folder: what a first run on a new
 machine costs, compilation included), then with the cache that run filled (what the next
 diagnosis of a file of the same length costs). The time is the whole command's, start-up,
-reading, the fits, the screens and the JSON included; the diagnosis's own figure (from its
+reading, the fits, the cross-validation and the JSON included; the diagnosis's own figure (from its
 last line) is given too, and the CPU time the command used (user and system, all its
 threads: divided by the wall time, the cores it kept busy). Each pair of runs is repeated
 `--repeats` times, each time with a new empty cache; the table gives the medians (the

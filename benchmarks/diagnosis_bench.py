@@ -1,6 +1,8 @@
 """Diagnosis bench: does `jaxfric diagnose` name the missing effect on data it did not make?
 
     python benchmarks/diagnosis_bench.py [--quick] [--jobs 2] [--out ROWS.json]
+    python benchmarks/diagnosis_bench.py --motions point_to_point,jerk_limited,sine_sweep \
+        --truths gms_power,stiction --noises 0.1 --rates 0.002 --jitter 0.1 --duration 30
 
 Every file is made the way a measurement would be (`jaxfric.synthetic.measurement`), from
 truths that are NOT the model being fitted (a two-state model with the paper's presliding
@@ -8,7 +10,14 @@ shape):
 
 - **truths**: a 60-element GMS whose virgin curve is another family (a power law) with its
   own Stribeck curve (``gms_power``); a LuGre model with stiff bristles (``lugre``); a
-  two-state model with a `PowerShape` presliding curve (``two_state_power``);
+  two-state model with a `PowerShape` presliding curve (``two_state_power``); true
+  stiction, a breakaway force and a stiff spring at rest, which none of jaxfric's families
+  is (``stiction``, `jaxfric.synthetic.stiction_force`);
+- **motions**: the diagnosis motion (``diagnosis``, `jaxfric.examples.diagnosis_motion`)
+  or a family of `jaxfric.trajectories` (``--motions``: trapezoidal point-to-point moves
+  with short strong accelerations, jerk-limited moves, sine sweeps) over ``--duration``
+  seconds, with a logger clock that takes each sample up to ``--jitter`` of the interval
+  early or late;
 - **physics on a fine grid**: the truth is simulated at a tenth of the sampling interval
   and the hidden effects are computed there, with formulas written in `jaxfric.synthetic`
   (not `jaxfric.effects`);
@@ -16,10 +25,12 @@ shape):
   the file holds t, x, F only, so the diagnosis derives the velocity itself;
 - **hidden effects**: none (a clean file), each of `SINGLES` alone, and the `PAIRS`.
 
-A *corner* is one sampling interval, noise level and starting model; each corner has one
-file per truth and hidden effect(s). For each file the bench records what the diagnosis
-added (in order) and the held-out RMSE before and after, and the same baseline's held-out
-RMSE on the file's clean twin (same motion and noise, nothing hidden). Targets: a single
+A *corner* is one sampling interval, noise level, starting model and motion; each corner
+has one file per truth and hidden effect(s). The summary counts each corner over all, per
+truth, and per hidden effect with what was named first instead (a confusion row). For
+each file the bench records what the diagnosis added (in order), the held-out RMSE before
+and after, and the same baseline's cross-validated held-out RMSE on the file's clean twin
+(same motion and noise, nothing hidden). Targets: a single
 hidden effect named first in >= 90 % of files, both effects of a pair found in >= 80 %,
 nothing added on clean files, and at least half the excess error over the clean twin
 removed on every file where the effect was found. A hidden effect that raises the
@@ -70,6 +81,9 @@ PAIRS = (("asymmetry", "position_dependence"), ("inertia", "cogging"),
          ("friction_lag", "offset"))
 NOISES = (0.03, 0.08)  # N
 RATES = (1e-2, 5e-3)  # s
+#: The truths of `jaxfric.synthetic.measurement`: its families, and true stiction.
+BENCH_TRUTHS = (*TRUTHS, "stiction")
+MOTIONS = ("diagnosis", "point_to_point", "jerk_limited", "sine_sweep")
 STARTS = ("two-state", "gms", "lugre", "tustin")
 #: A hidden effect whose baseline held-out RMSE exceeds the clean twin's by less than this
 #: fraction is counted as absorbed by the base model (`clean_holdout`).
@@ -82,7 +96,7 @@ def cases(quick: bool = False, truths=None, rates=None, noises=None, start="two-
     """One case per file: every truth x noise x rate x (clean, singles, pairs); the seed
     is the hidden effects' place in that list, so the same effects get the same motion and
     noise in every corner."""
-    truths = truths or (TRUTHS[:1] if quick else TRUTHS)
+    truths = truths or (BENCH_TRUTHS[:1] if quick else BENCH_TRUTHS)
     rates = rates or (RATES[:1] if quick else RATES)
     noises = noises or (NOISES[:1] if quick else NOISES)
     hidden = [()] + [(h,) for h in SINGLES] + list(PAIRS)
@@ -105,35 +119,44 @@ def run_case(case: dict) -> dict:
     kind = case.get("start", "two-state")
     start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
     d = fitting.diagnose(start, t, x, F, model_name=kind)
-    ranked = [c.name for c in sorted(d.candidates, key=lambda c: -c.score)]
+    judged = [c for c in d.candidates if np.isfinite(c.score)]
     return {**case, "samples": int(t.size), "added": list(d.final.added),
-            "rmse_holdout_clean": clean_holdout(case, start, d.holdout),
+            "rmse_holdout_clean": clean_holdout(case, start),
             "first": d.final.added[0] if d.final.added else None,
-            "top_score": ranked[0] if ranked else None,
+            "top_score": judged[0].name if judged else None, "finding": d.finding,
             "rmse_before": d.baseline.rmse, "rmse_after": d.final.rmse,
             "rmse_holdout_before": d.baseline.rmse_holdout,
             "rmse_holdout_after": d.final.rmse_holdout,
             "seconds": time.perf_counter() - t0, "summary": d.summary(),
             "trials": d.trials,
-            "rankings": [[{"name": c.name, "score": c.score,
+            "rankings": [[{"name": c.name,
+                           "score": c.score if np.isfinite(c.score) else None,
                            "t": c.t_stat if np.isfinite(c.t_stat) else None,
                            "significant": c.significant} for c in ranking]
                          for ranking in d.rankings]}
 
 
-def clean_holdout(case: dict, start, holdout) -> float:
-    """Held-out RMSE (N) of the baseline model fitted to the file's clean twin (same
-    motion, encoder and noise: `measurement` seeds them by file), on the diagnosis's
-    training/held-out split: the error the baseline would have if nothing were missing."""
+def clean_holdout(case: dict, start) -> float:
+    """Held-out RMSE (N) of the baseline model on the file's clean twin (same motion,
+    encoder and noise: `measurement` seeds them by file), cross-validated as the diagnosis
+    cross-validates its baseline (the same search copy, blocks and folds): the error the
+    baseline would have if nothing were missing."""
     import fitting
+    from fitting._diagnose import SEARCH_SAMPLES
+    from fitting._select import time_block_folds
 
     if not case["hidden"]:
         return float("nan")
     t, x, F = _measure(case, ())
-    v = fitting.estimate_velocity(t, x)
-    res = fitting.fit(start, t, x, F, v, weights=(~holdout).astype(float), max_steps=300)
-    err = np.asarray(res.prediction) - F
-    return float(np.sqrt(np.mean(err[holdout] ** 2)))
+    v, a = fitting.estimate_derivatives(t, x)
+    k = t.size // SEARCH_SAMPLES if t.size >= 2 * SEARCH_SAMPLES else 1
+    t, x, F, v, a = (arr[::k] for arr in (t, x, F, v, a))
+    rules = fitting.DiagnosisRules()
+    sse = 0.0
+    for train, test in time_block_folds(t, rules.blocks, rules.folds):
+        res = fitting.fit(start, t, x, F, v, a=a, weights=train, max_steps=150)
+        sse += float(np.sum(((np.asarray(res.prediction) - F) ** 2)[test > 0]))
+    return float(np.sqrt(sse / t.size))
 
 
 def absorbed(row: dict) -> bool:
@@ -150,6 +173,10 @@ def found(row: dict) -> bool:
 
 def file_key(row: dict) -> tuple:
     return (row["truth"], tuple(row["hidden"])) + corner_key(row)
+
+
+def motion(row: dict) -> str:
+    return row.get("options", {}).get("motion") or "diagnosis"
 
 
 def corner_key(row: dict) -> tuple:
@@ -203,7 +230,7 @@ def summarise_corner(rows: list[dict]) -> dict:
     truths = list(dict.fromkeys(r["truth"] for r in rows))
     return {"dt_s": r0["dt"], "noise_N": r0["noise"], "start": r0.get("start", "two-state"),
             **({"options": r0["options"]} if r0.get("options") else {}),
-            "truths": truths, "files": len(rows), **counts(rows),
+            "motion": motion(r0), "truths": truths, "files": len(rows), **counts(rows),
             "by_truth": {t: counts([r for r in rows if r["truth"] == t]) for t in truths},
             "by_effect": by_effect, "by_pair": by_pair}
 
@@ -267,21 +294,24 @@ def load_rows(paths: list[Path]) -> tuple[list[dict], list[dict]]:
     return list(rows.values()), runs
 
 
-def write_summary(path: Path, rows: list[dict], runs: list[dict]) -> dict:
+def write_summary(path: Path, rows: list[dict], runs: list[dict], note: str | None = None
+                  ) -> dict:
     previous = json.loads(path.read_text()) if path.is_file() else None
     out = summary(rows, runs, previous)
+    if note:
+        out["note"] = note
     path.write_text(json.dumps(out, indent=1) + "\n")
     return out
 
 
 def print_table(rows: list[dict]) -> None:
-    print(f"\n{'truth':<16} {'noise':>5} {'dt':>6}  {'hidden':<34} {'added (in order)':<40} "
-          "held-out RMSE before -> after, N")
+    print(f"\n{'truth':<16} {'motion':<15} {'noise':>5} {'dt':>6}  {'hidden':<34} "
+          f"{'added (in order)':<40} held-out RMSE before -> after, N")
     for r in rows:
         ok = "ok" if (found(r) if r["hidden"] else not r["added"]) else "MISS"
         if absorbed(r):
             ok += f" (absorbed: clean {r['rmse_holdout_clean']:.4f})"
-        print(f"{r['truth']:<16} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  "
+        print(f"{r['truth']:<16} {motion(r):<15} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  "
               f"{' + '.join(r['hidden']) or '(clean)':<34} "
               f"{' + '.join(r['added']) or '-':<40} {r['rmse_holdout_before']:>10.4f} -> "
               f"{r['rmse_holdout_after']:.4f}  {ok}")
@@ -290,7 +320,8 @@ def print_table(rows: list[dict]) -> None:
 def print_summary(out: dict) -> None:
     for c in out["corners"]:
         print(f"\ncorner dt {c['dt_s'] * 1e3:g} ms, noise {c['noise_N']:g} N, start "
-              f"{c['start']} ({', '.join(c['truths'])}; {c['files']} files):")
+              f"{c['start']}, motion {c.get('motion', 'diagnosis')} "
+              f"({', '.join(c['truths'])}; {c['files']} files):")
         for k in ("singles", "singles_not_absorbed", "pairs", "pairs_not_absorbed",
                   "found_half_excess_removed"):
             print(f"  {k:<28} {c[k][0]} of {c[k][1]}")
@@ -300,7 +331,7 @@ def print_summary(out: dict) -> None:
                   + (f", instead {e['instead']}" if e["instead"] else ""))
 
 
-def main(argv=None) -> int:
+def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="one truth, noise level and rate")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
@@ -309,8 +340,10 @@ def main(argv=None) -> int:
                     help="every file's row, JSON (default: %(default)s)")
     ap.add_argument("--summary", help=f"the summary JSON (default: {SUMMARY}; with --quick "
                     "or --only: next to --out)")
-    ap.add_argument("--only", help="comma-separated hidden effects to run (and clean)")
-    ap.add_argument("--truths", help=f"comma-separated truths (default: {', '.join(TRUTHS)}; "
+    ap.add_argument("--only", help="comma-separated hidden effects: run the files whose "
+                    "hidden effects are all among them (and the clean files)")
+    ap.add_argument("--truths", help="comma-separated truths (default: "
+                    f"{', '.join(BENCH_TRUTHS)}; "
                     "--quick: the first)")
     ap.add_argument("--rates", help="comma-separated sampling intervals in s (default: "
                     f"{', '.join(map(str, RATES))}; --quick: the first)")
@@ -319,26 +352,46 @@ def main(argv=None) -> int:
     ap.add_argument("--start", default="two-state", choices=STARTS,
                     help="the model the diagnosis starts from (fitting.initial_model; "
                     "default %(default)s)")
+    ap.add_argument("--motions", default="diagnosis",
+                    help=f"comma-separated motions, of {', '.join(MOTIONS)} (default: "
+                    "%(default)s)")
+    ap.add_argument("--duration", type=float, default=30.0,
+                    help="seconds of a trajectories motion (default: %(default)s)")
+    ap.add_argument("--jitter", type=float, default=0.0,
+                    help="clock jitter, fraction of the interval (default: %(default)s)")
+    ap.add_argument("--note", help="a note saved in the summary (e.g. what subset ran)")
     ap.add_argument("--summarise", nargs="+", metavar="ROWS", type=Path,
                     help="run nothing: summarise the rows of earlier runs into --summary")
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = _parser()
     args = ap.parse_args(argv)
     out = Path(args.out)
     summary_path = Path(args.summary) if args.summary else (
         out.with_name(out.stem + "_summary.json") if args.quick or args.only else SUMMARY)
     if args.summarise:
         rows, runs = load_rows(args.summarise)
-        print_summary(write_summary(summary_path, rows, runs))
+        print_summary(write_summary(summary_path, rows, runs, args.note))
         print(f"\nwrote {summary_path}")
         return 0
 
     def floats(text):
         return [float(v) for v in text.split(",")] if text else None
 
-    todo = cases(args.quick, args.truths.split(",") if args.truths else None,
-                 floats(args.rates), floats(args.noises), args.start)
+    todo = []
+    for m in args.motions.split(","):
+        if m not in MOTIONS:
+            ap.error(f"--motions: {m!r} is not one of {', '.join(MOTIONS)}")
+        options = ({} if m == "diagnosis" else {"motion": m, "duration": args.duration})
+        if args.jitter:
+            options["jitter"] = args.jitter
+        todo += cases(args.quick, args.truths.split(",") if args.truths else None,
+                      floats(args.rates), floats(args.noises), args.start, options or None)
     if args.only:
         keep = set(args.only.split(","))
-        todo = [c for c in todo if not c["hidden"] or set(c["hidden"]) & keep]
+        todo = [c for c in todo if set(c["hidden"]) <= keep]
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()
@@ -370,7 +423,8 @@ def main(argv=None) -> int:
     data = save(complete=True)
     print_table(rows)
     run = _run_facts(out.name, data)
-    print_summary(write_summary(summary_path, [{**r, "_run": out.name} for r in rows], [run]))
+    print_summary(write_summary(summary_path, [{**r, "_run": out.name} for r in rows], [run],
+                                args.note))
     print(f"\nwrote {out} (every file) and {summary_path} (the summary)")
     return 0
 

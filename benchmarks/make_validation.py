@@ -109,12 +109,14 @@ def section_diagnosis(d: dict) -> list[str]:
          s[0] >= targets["singles"] * s[1]),
         ("the same, leaving out the absorbed", _ratio(*sl), "", None),
         ("both effects of a pair found", _ratio(*p), f">= {100 * targets['pairs']:.0f} %",
-         p[0] >= targets["pairs"] * p[1]),
+         p[0] >= targets["pairs"] * p[1] if p[1] else None),
         ("the same, leaving out pairs with an effect absorbed alone", _ratio(*pl), "", None),
         ("effects added on clean files", clean, "0", clean == 0),
-        ("half the excess error removed when found", _ratio(*h), "every file", h[0] == h[1]),
+        ("half the excess error removed when found", _ratio(*h), "every file",
+         h[0] == h[1] if h[1] else None),
     ]
-    per_corner = [[f"{1e3 * c['dt_s']:g}", f"{c['noise_N']:g}", c["start"], len(c["truths"]),
+    per_corner = [[f"{1e3 * c['dt_s']:g}", f"{c['noise_N']:g}", c["start"],
+                   c.get("motion", "diagnosis"), ", ".join(c["truths"]),
                    "{} / {}".format(*c["singles"]), "{} / {}".format(*c["pairs"]),
                    c["added_on_clean"], _percent(c["median_excess_removed"])]
                   for c in corners]
@@ -136,16 +138,17 @@ def section_diagnosis(d: dict) -> list[str]:
     cpus = sorted({r["cpu"] for r in runs if r.get("cpu")})
     hours = sum(r.get("seconds") or 0 for r in runs) / 3600
     return [
-        "`jaxfric diagnose` on synthetic measurements from three truths that are not the "
-        "fitted model (a power-law GMS, a stiff LuGre, a power-shape two-state model), with "
-        "a 0.05 um encoder, force noise, and one hidden effect, a pair or none. A *corner* is "
-        "one sampling interval, noise level and starting model. An effect is *absorbed* when "
-        "it raises "
+        "`jaxfric diagnose` on synthetic measurements from truths that are not the fitted "
+        "model (a power-law GMS, a stiff LuGre, a power-shape two-state model, true "
+        "stiction), with a 0.05 um encoder, force noise, and one hidden effect, a pair or "
+        "none. A *corner* is one sampling interval, noise level, starting model and motion "
+        "(the diagnosis motion or a family of `jaxfric.trajectories`). An effect is "
+        "*absorbed* when it raises "
         f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
         f"the same file without it. {files} files in {len(corners)} corners.",
         goals_table(goals),
         "Per corner (excess removed: median over the files where the effect was found):",
-        table(["dt [ms]", "noise [N]", "start", "truths", "single named first",
+        table(["dt [ms]", "noise [N]", "start", "motion", "truths", "single named first",
                "pair both found", "added on clean", "excess removed"], per_corner),
         "Per hidden effect, over all corners:",
         table(["hidden effect", "named first", "absorbed", "named first instead"],

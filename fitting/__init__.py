@@ -110,8 +110,8 @@ from ._derivatives import (
     estimate_derivatives as estimate_derivatives,
     estimate_velocity as estimate_velocity,
 )
-from ._diagnose import diagnose as diagnose, Diagnosis as Diagnosis
-from ._diagnose_cv import diagnose_cv as diagnose_cv
+from ._diagnose import diagnose as diagnose
+from ._diagnosis import Diagnosis as Diagnosis
 from ._fit import fit as fit, fit_batch as fit_batch, fit_datasets as fit_datasets
 from ._montecarlo import monte_carlo as monte_carlo, MonteCarloResult as MonteCarloResult
 from ._params import (

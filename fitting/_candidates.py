@@ -1,6 +1,9 @@
-"""The candidate effects a diagnosis screens: for each effect of `jaxfric.effects`, the
-instances to try (a grid over its nonlinear parameters), the regression columns of its
-linear parameters, their physical bounds, and the `Candidate` a screen returns.
+"""The candidate effects of a diagnosis: which effects can be switched on in the superset
+model (`switchable`: those with a linear parameter, ``param(..., linear=True)``), where a
+refit of one starts (`start_effect`, from its `grid` and a regression on the residual),
+whether its fitted values are physical (`physical`, ``param(..., physical=(lo, hi))``),
+what a diagnosis reports of each option it fitted (`Candidate`), and the one-liner that
+adds an effect with its fitted values (`_code`).
 """
 
 import dataclasses
@@ -9,92 +12,45 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+import jaxfric
 from jaxfric import effects as fx
 from jaxfric._compile import jit
 
 
-def _signals(t, x, v, base, static, load=None, a=None):
-    """The `jaxfric.effects.Signals` of concrete arrays; `a` None: the backward difference
-    of `v`, as the model takes it."""
-    dt = np.r_[0.0, np.diff(t)]
-    if a is None:
-        a = np.r_[0.0, np.diff(v) / np.where(dt[1:] > 0, dt[1:], 1.0)]
-    return fx.Signals(t=jnp.asarray(t), x=jnp.asarray(x), v=jnp.asarray(v), a=jnp.asarray(a),
-                      dt=jnp.asarray(dt), dx=jnp.asarray(np.r_[0.0, np.diff(x)]),
-                      t0=jnp.asarray(t[0]), base=jnp.asarray(base),
-                      static=jnp.asarray(static),
-                      load=None if load is None else jnp.asarray(load))
+@dataclasses.dataclass
+class Data:
+    """The record every fit uses (SI arrays; `a` and `load` may be None)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    F: np.ndarray
+    a: np.ndarray | None = None
+    load: np.ndarray | None = None
+
+    def simulate(self, model) -> np.ndarray:
+        return np.asarray(jaxfric.simulate(model, self.t, self.x, self.v, load=self.load,
+                                           a=self.a))
 
 
-#: The shortest settling time of a drift is the record's duration over this: the screen's
-#: grid starts there, and the diagnosis's refits hold the drift to it (`fitting._diagnose`).
-DRIFT_SPAN_RATIO = 10
+def _linear(effect) -> list[str]:
+    return [f.name for f in dataclasses.fields(effect) if f.metadata.get("linear")]
 
 
-def _grid(name, t, x, v, F):
-    """Instances of effect `name` to screen: unit linear parameters, a grid over the
-    nonlinear ones (SI)."""
-    speed = np.abs(v[v != 0]) if np.any(v != 0) else np.ones(1)
-    level = float(np.median(np.abs(F))) or 1.0
-    dx = np.abs(np.diff(x))
-    dx = dx[dx > 0]
-    if name == "cogging":
-        lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
-        periods = np.geomspace(lo, np.ptp(x) / 2, 160)
-        return [fx.Cogging(cog_sin=1.0, cog_cos=1.0, period=p) for p in periods]
-    if name == "stribeck":
-        vs = np.geomspace(np.quantile(speed, 0.02), np.quantile(speed, 0.98), 24)
-        return [fx.StribeckHump(dF_str=1.0, v_str=s) for s in vs]
-    if name == "presliding":
-        dmax = np.ptp(x) / 2
-        travel = np.geomspace(max(dmax * 1e-4, 1e-9), dmax, 30)  # 2*F_pre/k_pre
-        return [fx.Presliding(F_pre=level, k_pre=2 * level / d) for d in travel]
-    if name == "drift":  # linear (wear), or settling (a warm-up) over a tenth to twice the record
-        span = max(float(t[-1] - t[0]), 1e-9)
-        return [fx.Drift(drift_rate=1.0, drift_decay=d)
-                for d in (0.0, *(1.0 / np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)))]
-    if name == "friction_lag":
-        span = t[-1] - t[0]
-        taus = np.geomspace(max(np.median(np.diff(t)), 1e-6), span / 10, 24)
-        return [fx.FrictionLag(lag_gain=1.0, tau=tau) for tau in taus]
-    if name == "ripple":
-        return [fx.Ripple(rip_sin=np.ones(3), rip_cos=np.ones(3), period=2 * np.pi / k)
-                for k in _ripple_counts(x, dx)]
-    if name == "position_dependence":
-        return [fx.PositionDependence.for_travel(x, pos_1=1.0, pos_2=1.0)]
-    if name == "position_load":
-        return [fx.PositionLoad.for_travel(x, load_1=1.0, load_2=1.0)]
-    cls = fx.EFFECTS[name]
-    return [cls()]
+def switchable(name: str) -> bool:
+    """Whether effect `name` can sit in the superset (it has a linear parameter)."""
+    return bool(_linear(fx.EFFECTS[name]))
 
 
-def _ripple_counts(x, dx) -> np.ndarray:
-    """Ripples per revolution to screen (the period ``2 pi / k`` divides a turn): every
-    integer `k` from the first whose period fits in the travel (`ptp(x)`) up to the last
-    whose period is long against the sampling (8 steps of the median `dx`), at most
-    `RIPPLE_MAX` (720: a period of half a degree). Every integer, as a count one off drifts
-    by a whole period over as many periods as the travel holds."""
-    lo = max(8 * (np.median(dx) if dx.size else 1e-6), np.ptp(x) / 2000)
-    k_min = max(1, int(np.ceil(2 * np.pi / max(np.ptp(x), 1e-12))))
-    k_max = min(RIPPLE_MAX, int(np.floor(2 * np.pi / lo)))
-    return np.arange(k_min, max(k_min, k_max) + 1)
+def _set(effect, values: dict):
+    for k, val in values.items():
+        effect = eqx.tree_at(lambda e, k=k: getattr(e, k), effect,
+                             jnp.asarray(val, float).reshape(jnp.shape(getattr(effect, k))))
+    return effect
 
 
-#: The most ripples per revolution a diagnosis screens (`_ripple_counts`).
-RIPPLE_MAX = 720
-
-
-#: Parameters entering the term linearly (the regression's unknowns); effects not listed
-#: are scaled as a whole (one column: the term itself).
-_LINEAR = {
-    "viscous": ("c_visc",), "quadratic_drag": ("c_drag",), "stribeck": ("dF_str",),
-    "inertia": ("mass",), "offset": ("offset",), "asymmetry": ("asym",),
-    "cogging": ("cog_sin", "cog_cos"), "position_dependence": ("pos_1", "pos_2"),
-    "position_load": ("load_1", "load_2"),
-    "drift": ("drift_rate",), "friction_lag": ("lag_gain",),
-    "ripple": ("rip_sin", "rip_cos"), "angle_load": ("g_sin", "g_cos"),
-    "load_friction": ("k_load",),
-}
+def _off(effect):
+    return _set(effect, {k: np.zeros(np.shape(getattr(effect, k))) for k in _linear(effect)})
 
 
 @jit
@@ -102,53 +58,72 @@ def _term(effect, s):
     return effect.term(s)
 
 
-def _columns(effect, s):
-    """Effect term's derivative w.r.t. its linear parameters (n, q); for an effect with
-    none, the term itself (n, 1). Linear parameters are evaluated at 1."""
-    names = _LINEAR.get(effect.name)
-    if not names:
-        return np.asarray(_term(effect, s))[:, None]
-    zero = effect
-    for name in names:
-        zero = eqx.tree_at(lambda e, n=name: getattr(e, n), zero,
-                           jnp.zeros_like(getattr(effect, name)))
-    cols = []
-    for name in names:  # one column per entry of a vector parameter (ripple's harmonics)
-        z = getattr(zero, name)
+def _columns(effect, s) -> np.ndarray:
+    """The term's derivative w.r.t. each entry of its linear parameters, (n, q)."""
+    zero, cols = _off(effect), []
+    for k in _linear(effect):
+        z = np.zeros(np.shape(getattr(effect, k)))
         for j in range(z.size):
-            one = z.ravel().at[j].set(1.0).reshape(z.shape)
-            unit = eqx.tree_at(lambda e, n=name: getattr(e, n), zero, one)
-            cols.append(np.asarray(_term(unit, s)))
+            one = z.ravel().copy()
+            one[j] = 1.0
+            cols.append(np.asarray(_term(_set(zero, {k: one.reshape(z.shape)}), s)))
     return np.stack(cols, axis=1)
 
 
-#: Physical ranges of linear parameters (the lag gain is a fraction of the force).
-#: Dissipative terms (viscous, drag) and a Stribeck hump (extra static friction) are not
-#: negative: with a negative coefficient they would stand in for model mismatch, not physics.
-_BOUNDS = {"friction_lag": (0.0, 1.0), "inertia": (0.0, np.inf),  # a mass is not negative
-           "load_friction": (0.0, np.inf),  # friction grows with the load
-           "viscous": (0.0, np.inf), "quadratic_drag": (0.0, np.inf), "stribeck": (0.0, np.inf)}
+def _signals(data: Data, base_model) -> fx.Signals:
+    base = np.asarray(jaxfric.simulate(base_model, data.t, data.x, data.v, load=data.load,
+                                       a=data.a))
+    dt = np.r_[0.0, np.diff(data.t)]
+    a = data.a if data.a is not None else np.r_[0.0, np.diff(data.v) / np.where(
+        dt[1:] > 0, dt[1:], 1.0)]
+    return fx.Signals(t=jnp.asarray(data.t), x=jnp.asarray(data.x), v=jnp.asarray(data.v),
+                      a=jnp.asarray(a), dt=jnp.asarray(dt),
+                      dx=jnp.asarray(np.r_[0.0, np.diff(data.x)]), t0=jnp.asarray(data.t[0]),
+                      base=jnp.asarray(base),
+                      static=jnp.asarray(fx.static_force(base_model, jnp.asarray(data.v),
+                                                         jnp.asarray(base))),
+                      load=None if data.load is None else jnp.asarray(data.load))
 
 
-def _with_linear(effect, w):
-    names = _LINEAR.get(effect.name)
-    if not names:
-        if effect.name == "presliding":  # scale the element's force: F_pre * w
-            return eqx.tree_at(lambda e: e.F_pre, effect, jnp.abs(effect.F_pre * w[0]))
-        return effect
-    if effect.name in _BOUNDS:  # strictly inside a finite range (the fit's bounded transform)
-        lo, hi = _BOUNDS[effect.name]
-        if np.isfinite(hi - lo):
-            lo, hi = lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)
-        w = np.clip(w, lo, hi)
-    k = 0
-    for name in names:
-        shape = jnp.shape(getattr(effect, name))
-        size = int(np.prod(shape))
-        value = jnp.asarray(np.asarray(w[k:k + size], float).reshape(shape))
-        effect = eqx.tree_at(lambda e, n=name: getattr(e, n), effect, value)
+def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
+                 weights=None):
+    """Effect `name` at the grid point whose term best regresses `resid` (N, measured minus
+    model) on the samples of weight > 0 (`weights`; default all), its linear parameters at
+    that regression's values (clipped to their physical range). `s`: the signals of
+    `base_model` on `data`, if already computed."""
+    s = _signals(data, base_model) if s is None else s
+    keep = slice(None) if weights is None else np.asarray(weights) > 0
+    resid = resid[keep]
+    best, best_gain = None, -np.inf
+    for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
+        X = _columns(e, s)[keep]
+        w, *_ = np.linalg.lstsq(X, resid, rcond=None)
+        gain = float(resid @ resid - np.sum((resid - X @ w) ** 2))
+        if gain > best_gain:
+            best, best_gain, best_w = e, gain, w
+    values, k = {}, 0
+    for f in dataclasses.fields(best):
+        if not f.metadata.get("linear"):
+            continue
+        size = int(np.size(getattr(best, f.name)))
+        lo, hi = f.metadata.get("physical") or (-np.inf, np.inf)
+        values[f.name] = np.clip(best_w[k:k + size], lo, hi)
         k += size
-    return effect
+    return _set(best, values)
+
+
+def physical(effect) -> str:
+    """Why `effect`'s fitted values are not physical ("" when they are), from each
+    field's ``physical`` range."""
+    for f in dataclasses.fields(effect):
+        rng = f.metadata.get("physical")
+        if rng is None:
+            continue
+        val = np.asarray(getattr(effect, f.name), float)
+        if np.any(val < rng[0]) or np.any(val > rng[1]):
+            return f"{f.name} = {np.round(val, 6).tolist()} outside [{rng[0]}, {rng[1]}]"
+    return ""
+
 
 
 def _code(effect) -> str:

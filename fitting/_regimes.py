@@ -1,5 +1,4 @@
-"""Where a model fails: the regimes of a motion and the error in each, and the held-out
-blocks of the diagnosis.
+"""Where a model fails: the regimes of a motion and the error in each.
 
 **Per-regime errors** (`regimes`, `compare`): RMSE overall and in presliding (within a
 travel window after a reversal), reversal windows (a time window around each reversal),
@@ -75,10 +74,3 @@ def regime_errors(residual, masks) -> dict[str, dict[str, float]]:
                          "share": float(np.sum(r[m] ** 2)) / total}
     return out
 
-
-def holdout_mask(t, blocks: int = 24) -> tuple[np.ndarray, np.ndarray]:
-    """Every third of `blocks` contiguous time blocks (the 3rd, 6th, ...) as a mask, and
-    the block index of every sample."""
-    t = np.asarray(t, float)
-    b = np.minimum((blocks * (t - t[0]) / (t[-1] - t[0])).astype(int), blocks - 1)
-    return (b % 3) == 2, b

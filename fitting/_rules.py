@@ -26,8 +26,11 @@ class DiagnosisRules:
       false-alarm rate of about 2.5 % for one candidate with independent blocks; the
       rule cross-validates only `tried` candidates per round, so the family-wise rate per
       round is at most about 7 %, and the effect must also be physical.
-    - `tried`: per round, the candidates with the lowest training error after their full
-      refit are cross-validated, this many; when none qualifies, the pairs of those are.
+    - `tried`: per round, this many candidates are cross-validated: those with the lowest
+      training error after their full refit, among those whose refit removes more than its
+      expected optimism ``2 q s^2`` (q added coordinates, ``s^2`` the current model's
+      residual variance: what fitting noise removes, not a threshold); when none
+      qualifies, the pairs of those are.
     - `max_added`: at most this many effects (or base-model changes) are added.
     """
 

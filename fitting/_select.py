@@ -10,21 +10,25 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 
 **Each round** (forward selection):
 
-1. each option is fitted jointly with the base model to convergence on every sample: its
-   nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term best
-   regresses the current residual, its linear ones at that regression's values, the base
-   model's at the *starting* model's (a fitted base model has bent its Stribeck curve and
-   viscous term around the missing effect, a poor start for the refit);
-2. the `tried` options with the lowest training error are cross-validated: refitted from
-   their starts with each fold held out in turn (`folds`, a plain list of
-   ``(train_weights, test_weights)``; `time_block_folds` makes the default), a searched
-   nonlinear parameter's grid start picked again on the fold's training samples; so is
-   the current model;
+1. each option is fitted jointly with the current model to convergence on every sample:
+   its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
+   best regresses the current residual, its linear ones at that regression's values, the
+   rest of the model at the current fit;
+2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
+   q added coordinates remove when they fit only noise) is not cross-validated; of the
+   others, the `tried` with the lowest training error are: refitted with each fold held
+   out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
+   `time_block_folds` makes the default), each from the current model's own fit on that
+   fold's training samples, its grid start picked again on those samples
+   (`Fitter.cross_validate_nested`); a base-model option, which does not contain the
+   current model, is refitted from its own start (`Fitter.cross_validate`);
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, and every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
-   option with the largest gain is added;
-4. when none qualifies, the pairs of the `tried` options are refitted and judged the same.
+   option with the largest ``z`` is added (the strongest evidence first, as forward
+   selection by the partial F statistic: a base-model change that removes more error
+   less consistently does not push out an effect the data support more firmly);
+4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
 """
@@ -35,15 +39,13 @@ from collections.abc import Callable, Sequence
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 
-import jaxfric
 from jaxfric import effects as fx
-from jaxfric._compile import jit
 from jaxfric._fields import parameter_info
 
 from . import _params
+from ._candidates import _linear, _off, _signals, Data, physical, start_effect, switchable
 from ._fit import fit
 from ._rules import DiagnosisRules
 from ._transforms import Identity, ParamProps
@@ -70,22 +72,6 @@ def _blocks(folds) -> list[tuple[int, np.ndarray]]:
 
 
 @dataclasses.dataclass
-class Data:
-    """The record every fit uses (SI arrays; `a` and `load` may be None)."""
-
-    t: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    F: np.ndarray
-    a: np.ndarray | None = None
-    load: np.ndarray | None = None
-
-    def simulate(self, model) -> np.ndarray:
-        return np.asarray(jaxfric.simulate(model, self.t, self.x, self.v, load=self.load,
-                                           a=self.a))
-
-
-@dataclasses.dataclass
 class Option:
     """One thing the rule can add: `names` (effect names, or the base model's name),
     its start `model`, which superset slots it frees (`on`), and what fitting found."""
@@ -101,103 +87,13 @@ class Option:
     gain: float = np.nan  # held-out SSE removed, share of the current model's
     z: float = np.nan  # mean block gain over its standard error
     physical: str = ""  # "" when physical, else why not
+    optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     fold_preds: list = dataclasses.field(default_factory=list)
+    fold_models: list = dataclasses.field(default_factory=list)
 
     @property
     def name(self) -> str:
         return " + ".join(self.names)
-
-
-def _linear(effect) -> list[str]:
-    return [f.name for f in dataclasses.fields(effect) if f.metadata.get("linear")]
-
-
-def switchable(name: str) -> bool:
-    """Whether effect `name` can sit in the superset (it has a linear parameter)."""
-    return bool(_linear(fx.EFFECTS[name]))
-
-
-def _set(effect, values: dict):
-    for k, val in values.items():
-        effect = eqx.tree_at(lambda e, k=k: getattr(e, k), effect,
-                             jnp.asarray(val, float).reshape(jnp.shape(getattr(effect, k))))
-    return effect
-
-
-def _off(effect):
-    return _set(effect, {k: np.zeros(np.shape(getattr(effect, k))) for k in _linear(effect)})
-
-
-@jit
-def _term(effect, s):
-    return effect.term(s)
-
-
-def _columns(effect, s) -> np.ndarray:
-    """The term's derivative w.r.t. each entry of its linear parameters, (n, q)."""
-    zero, cols = _off(effect), []
-    for k in _linear(effect):
-        z = np.zeros(np.shape(getattr(effect, k)))
-        for j in range(z.size):
-            one = z.ravel().copy()
-            one[j] = 1.0
-            cols.append(np.asarray(_term(_set(zero, {k: one.reshape(z.shape)}), s)))
-    return np.stack(cols, axis=1)
-
-
-def _signals(data: Data, base_model) -> fx.Signals:
-    base = np.asarray(jaxfric.simulate(base_model, data.t, data.x, data.v, load=data.load,
-                                       a=data.a))
-    dt = np.r_[0.0, np.diff(data.t)]
-    a = data.a if data.a is not None else np.r_[0.0, np.diff(data.v) / np.where(
-        dt[1:] > 0, dt[1:], 1.0)]
-    return fx.Signals(t=jnp.asarray(data.t), x=jnp.asarray(data.x), v=jnp.asarray(data.v),
-                      a=jnp.asarray(a), dt=jnp.asarray(dt),
-                      dx=jnp.asarray(np.r_[0.0, np.diff(data.x)]), t0=jnp.asarray(data.t[0]),
-                      base=jnp.asarray(base),
-                      static=jnp.asarray(fx.static_force(base_model, jnp.asarray(data.v),
-                                                         jnp.asarray(base))),
-                      load=None if data.load is None else jnp.asarray(data.load))
-
-
-def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
-                 weights=None):
-    """Effect `name` at the grid point whose term best regresses `resid` (N, measured minus
-    model) on the samples of weight > 0 (`weights`; default all), its linear parameters at
-    that regression's values (clipped to their physical range). `s`: the signals of
-    `base_model` on `data`, if already computed."""
-    s = _signals(data, base_model) if s is None else s
-    keep = slice(None) if weights is None else np.asarray(weights) > 0
-    resid = resid[keep]
-    best, best_gain = None, -np.inf
-    for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
-        X = _columns(e, s)[keep]
-        w, *_ = np.linalg.lstsq(X, resid, rcond=None)
-        gain = float(resid @ resid - np.sum((resid - X @ w) ** 2))
-        if gain > best_gain:
-            best, best_gain, best_w = e, gain, w
-    values, k = {}, 0
-    for f in dataclasses.fields(best):
-        if not f.metadata.get("linear"):
-            continue
-        size = int(np.size(getattr(best, f.name)))
-        lo, hi = f.metadata.get("physical") or (-np.inf, np.inf)
-        values[f.name] = np.clip(best_w[k:k + size], lo, hi)
-        k += size
-    return _set(best, values)
-
-
-def physical(effect) -> str:
-    """Why `effect`'s fitted values are not physical ("" when they are), from each
-    field's ``physical`` range."""
-    for f in dataclasses.fields(effect):
-        rng = f.metadata.get("physical")
-        if rng is None:
-            continue
-        val = np.asarray(getattr(effect, f.name), float)
-        if np.any(val < rng[0]) or np.any(val > rng[1]):
-            return f"{f.name} = {np.round(val, 6).tolist()} outside [{rng[0]}, {rng[1]}]"
-    return ""
 
 
 class Fitter:
@@ -227,6 +123,13 @@ class Fitter:
                                   is_leaf=_params._is_props)
         return fit_model, jax.tree.unflatten(tree, leaves)
 
+    def n_free(self, model, on: frozenset) -> int:
+        """The number of free coordinates of `model` with the effects in `on` switched on."""
+        fit_model, props = self.props(model, on)
+        sizes = [int(np.size(leaf)) for leaf in jax.tree.leaves(
+            eqx.filter(fit_model, eqx.is_inexact_array))]
+        return sum(n for n, p in zip(sizes, _params.props_leaves(props)) if p.free)
+
     def fit(self, model, on: frozenset, weights=None):
         """``(fitted model in the fit representation, prediction on every sample)``."""
         d = self.data
@@ -236,24 +139,26 @@ class Fitter:
         self.last = res
         return res.fit_model, d.simulate(res.fit_model)
 
-    def cross_validate_searched(self, option: Option, current: Option, folds,
-                                new: dict) -> None:
-        """As `cross_validate` for an option adding effects (`new`: slot index -> effect
-        name): each fold picks its own grid start on its training samples, from the current
-        model's residual with that fold held out (a grid point picked on all samples has
-        seen the held-out blocks)."""
+    def cross_validate_nested(self, option: Option, current: Option, folds,
+                              new: dict) -> None:
+        """Refit `option` (the current model plus the effects `new`: slot index -> effect
+        name) with each fold held out, starting from the current model's own fit on that
+        fold's training samples, the new effects at their start picked on those samples
+        only (`start_effect` on that fit's residual): nested and paired, so the held-out
+        difference is the effects', not a different optimum of the base model's, and
+        nothing was fitted on the held-out blocks."""
         if option.fold_preds:
             return
-        s = _signals(self.data, current.fitted.without_effects())
-        preds = []
         for k, (train, _) in enumerate(folds):
-            model = option.model
+            model = current.fold_models[k]
             resid = self.data.F - current.fold_preds[k]
+            s = _signals(self.data, model.without_effects())
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            preds.append(self.fit(model, option.on, train)[1])
-        option.fold_preds = preds
+            fitted, pred = self.fit(model, option.on, train)
+            option.fold_models.append(fitted)
+            option.fold_preds.append(pred)
 
     def cross_validate(self, option: Option, folds) -> None:
         """Refit `option` from its start (`option.model`) with each fold held out. Not
@@ -261,8 +166,10 @@ class Fitter:
         solver's tolerance test), leaving the held-out blocks predicted by a model that
         was fitted on them."""
         if not option.fold_preds:
-            option.fold_preds = [self.fit(option.model, option.on, train)[1]
-                                 for train, _ in folds]
+            for train, _ in folds:
+                fitted, pred = self.fit(option.model, option.on, train)
+                option.fold_models.append(fitted)
+                option.fold_preds.append(pred)
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
@@ -321,7 +228,6 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                 continue
             eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
-            model = eqx.tree_at(lambda m: m.base, model, plain)  # the starting base
             options.append(Option((n,), model, current.on | {i}))
         if not switched:
             for bname, bmodel in base_options():
@@ -329,34 +235,50 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                 options.append(Option((bname,), _params.to_fit_representation(bmodel)
                                       + keep, current.on, base=True))
         for o in options:
-            log(f"  refitting with {o.name} ...")
-            o.fitted, o.pred = fitter.fit(o.model, o.on)
-            o.result = fitter.last
-            o.sse = float(np.sum((o.pred - data.F) ** 2))
-            o.physical = "" if o.base else physical(o.fitted.effects[max(o.on - current.on)])
+            _refit(fitter, o, current, log)
         options.sort(key=lambda o: o.sse)
-        chosen = _cross_validate(fitter, current, options[:rules.tried], folds, rules, log)
+        _optimism(fitter, current, options)
+        best = [o for o in options if o.sse < current.sse - o.optimism][:rules.tried]
+        chosen = _cross_validate(fitter, current, best, folds, rules, log)
         if chosen is None and len(rounds) + 2 <= rules.max_added:
-            singles = [o for o in options[:rules.tried] if not o.base]
+            singles = [o for o in best if not o.base]
             pairs = [_pair(a, b, current) for a, b in itertools.combinations(singles, 2)]
             for o in pairs:
-                log(f"  refitting with {o.name} together ...")
-                o.fitted, o.pred = fitter.fit(o.model, o.on)
-                o.result = fitter.last
-                o.sse = float(np.sum((o.pred - data.F) ** 2))
-                o.physical = "; ".join(p for i in o.on - current.on
-                                       if (p := physical(o.fitted.effects[i])))
+                _refit(fitter, o, current, log)
+            _optimism(fitter, current, pairs)
             options += pairs
-            chosen = _cross_validate(fitter, current, pairs, folds, rules, log)
+            chosen = _cross_validate(fitter, current, [o for o in pairs if o.sse < current.sse
+                                                       - o.optimism], folds, rules, log)
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
         switched |= chosen.base
-        if chosen.base:
-            superset = chosen.fitted
-            plain = superset.without_effects()
         current = chosen
     return rounds
+
+
+def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
+    """Fit option `o` on every sample; set its fit, training SSE and physical check."""
+    log(f"  refitting with {o.name} ...")
+    o.fitted, o.pred = fitter.fit(o.model, o.on)
+    o.result = fitter.last
+    o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
+    o.physical = "" if o.base else "; ".join(
+        p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i])))
+
+
+def _optimism(fitter: Fitter, current: Option, options: list[Option]) -> None:
+    """Set each option's `optimism`, ``2 q s^2``: how much q added free coordinates lower
+    the training SSE in expectation when they fit only noise (Mallows' Cp, AIC), with
+    ``s^2`` the current model's training SSE over its residual degrees of freedom. An
+    option whose refit removes no more than that cannot be expected to predict held-out
+    data better, and is not cross-validated."""
+    n = int(np.sum(np.isfinite(fitter.data.F)))
+    p = fitter.n_free(current.model, current.on)
+    s2 = current.sse / max(n - p, 1)
+    for o in options:
+        q = max(fitter.n_free(o.model, o.on) - p, 1)
+        o.optimism = 2.0 * q * s2
 
 
 def _pair(a: Option, b: Option, current: Option) -> Option:
@@ -367,17 +289,17 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
 
 
 def _cross_validate(fitter, current, options, folds, rules, log):
-    """Cross-validate `current` and `options`; the qualifying one of largest gain."""
+    """Cross-validate `current` and `options`; the qualifying one of largest ``z``."""
     fitter.cross_validate(current, folds)
     for o in options:
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
         if names and not o.base:
-            fitter.cross_validate_searched(o, current, folds, names)
+            fitter.cross_validate_nested(o, current, folds, names)
         else:
             fitter.cross_validate(o, folds)
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else ""))
     good = [o for o in options if o.z >= rules.z and not o.physical]
-    return max(good, key=lambda o: o.gain) if good else None
+    return max(good, key=lambda o: o.z) if good else None

@@ -12,8 +12,8 @@ import numpy as np
 
 from jaxfric import data as _data, units as _units
 
+from .._diagnose import SEARCH_SAMPLES
 from .._fit import fit as _fit
-from .._search_copy import SEARCH_SAMPLES
 from .._start import initial_model, steady_sliding_weights
 from ._io import (
     about,

@@ -8,8 +8,8 @@
    sensor records every 20 ms: the position quantised to a 0.1 um encoder and the force
    with 0.05 N of noise, no velocity. Seeded: the same data on every machine.
 2. A two-state model with the paper's shape family, starting from values estimated from the
-   data, is fitted; the diagnosis ranks the missing effects on held-out data, adds the
-   significant ones and refits (`fitting.diagnose`).
+   data, is fitted; the diagnosis refits it with each candidate effect and adds those that
+   blocked cross-validation supports (`fitting.diagnose`).
 3. The report: ``report.html`` with the figures, the error per regime before and after,
    the candidates with their evidence, and the parameters with units and standard errors;
    plus ``diagnosis.json``, ``summary.json`` and the measurement as ``example.csv``.

@@ -7,7 +7,7 @@ import threading
 import time
 from pathlib import Path
 
-from .._search_copy import SEARCH_SAMPLES
+from .._diagnose import SEARCH_SAMPLES
 
 
 DEMO_HELP = """\
@@ -17,7 +17,8 @@ The example: a seeded identification motion (slow nested presliding loops, strok
 1..20 mm/s over 10 mm, a varying-velocity segment) through a simulated stage whose friction
 has one hidden effect, sampled every 20 ms as a sensor would (a 0.1 um encoder, 0.05 N of
 noise, no velocity column). The two-state model is fitted, the diagnosis
-ranks the missing effects on held-out data, adds the significant one and refits, and a
+refits it with each candidate effect, cross-validates the best and adds the one that holds
+up, and a
 report (report.html with figures and tables) is written.
 
 examples:
@@ -69,9 +70,10 @@ examples:
 
 
 DIAGNOSE_HELP = """\
-Fit a model, rank the physical effects it is missing by how much of the held-out residual
-each explains, add the significant ones one at a time with a joint refit after each, and
-report the error per regime before and after (SI: s, m, m/s, N).
+Fit a model, refit it with each physical effect it may be missing, and add, one at a
+time, the effect that predicts held-out time blocks better by more than chance (blocked
+cross-validation) with physical values; report the error per regime before and after
+(SI: s, m, m/s, N). The rule and its thresholds: docs/diagnosis.md.
 
 A file with the drive force u instead of F is diagnosed from a friction-only model:
 inertia and offset are then among the effects it should find.
@@ -276,8 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--elements", type=int, default=5, help="GMS elements (default: 5)")
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--search-samples", type=int, default=SEARCH_SAMPLES, metavar="N",
-                   help="a record of 2N samples or more: rank and try the effects on about N "
-                        "(force averaged over windows), refit on all (default: %(default)s; "
+                   help="a record of 2N samples or more: search the effects on about N "
+                        "(one sample in k), refit on all (default: %(default)s; "
                         "0: every sample throughout)")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
     _add_deadband_option(p, "auto; the value used is saved in --json")

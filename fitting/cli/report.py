@@ -50,8 +50,12 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
     unit = _units.si_unit("F", kind)
     files = plot_diagnosis(out, m, d)
     write_json(out / "diagnosis.json", diagnosis_json(d, kind))
-    cands = [[c.name, f"{c.score:.3f}", f"{c.t_stat:.1f}", "yes" if c.significant else "no",
-              _units.speak(c.evidence, kind)] for c in d.candidates]
+    def num(value, fmt):
+        return format(value, fmt) if np.isfinite(value) else "-"
+
+    cands = [[c.name, num(c.score, ".3f"), num(c.t_stat, ".2f"),
+              "yes" if c.significant else "no", _units.speak(c.evidence, kind)]
+             for c in d.candidates]
     steps = [["baseline", f"{d.baseline.rmse:.4g}", f"{d.baseline.rmse_holdout:.4g}",
               f"{100 * d.baseline.rel_error:.3g} %"]]
     steps += [[f"+ {' + '.join(s.added[len(before.added):])}", f"{s.rmse:.4g}",
@@ -61,7 +65,8 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
                    if c.name in d.final.added)
     flags = "".join(f"<li>{which} model: {html.escape(_units.speak(w, kind))}</li>"
                     for which, ws in d.warnings.items() for w in ws)
-    how = [d.velocity and f"velocity: {d.velocity}", d.search and f"search: {d.search}"]
+    how = [d.velocity and f"velocity: {d.velocity}", d.search and f"search: {d.search}",
+           d.finding]
     parts = [
         f"<h1>{html.escape(title)}</h1>",
         f"<p>{intro}</p>" if intro else "",
@@ -70,10 +75,13 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
         _table(["model", f"RMSE [{unit}]", f"held-out RMSE [{unit}]", "relative"], steps),
         "<h2>Plausibility of the fitted models</h2>",
         f"<ul>{flags or '<li>no warning</li>'}</ul>",
-        "<h2>Candidate effects (first ranking, on the baseline's residual)</h2>",
-        "<p>score = fraction of the held-out residual variance removed; significant = score "
-        "&ge; 0.05 and consistent over held-out blocks (t &ge; 3).</p>",
-        _table(["effect", "score", "t", "significant", "evidence"], cands),
+        "<h2>Candidates of the first round (each refitted with the baseline)</h2>",
+        "<p>gain = share of the baseline's held-out sum of squares the candidate removes "
+        "in the blocked cross-validation (- where not cross-validated: not among the best "
+        "training fits); z = mean gain per block over its standard error; added = the "
+        "candidate that qualified (z and a physical fit, docs/diagnosis.md) with the "
+        "largest gain.</p>",
+        _table(["candidate", "gain", "z", "added", "evidence"], cands),
         f"<h3>Added in code</h3><ul>{code or '<li>nothing</li>'}</ul>",
         "<h2>Error per regime, before and after</h2>",
         _regimes_table(_units.speak_json(d.baseline.regimes, kind),

@@ -1,14 +1,15 @@
-"""The diagnosis by full refits and blocked cross-validation (`fitting._diagnose_cv`) on
+"""The diagnosis by full refits and blocked cross-validation (`fitting.diagnose`) on
 files jaxfric did not make with its own families: a 60-element GMS truth with a power-law
 virgin curve (`jaxfric.synthetic`), point-to-point moves with short strong accelerations
 (2 ms sampling, position only: the velocity is derived), and today's diagnosis motion.
-Slow: each diagnosis refits every candidate and cross-validates the best (minutes)."""
+Slow: each diagnosis refits every candidate and cross-validates the best (tens of minutes
+with the GMS base candidate on a loaded 2-core machine)."""
 
 import numpy as np
 import pytest
 
 import fitting
-from fitting._diagnose_cv import diagnose_cv
+from fitting import diagnose
 from jaxfric import synthetic
 
 
@@ -22,7 +23,7 @@ def _p2p(hidden):
 
 def _diagnose(t, x, F):
     start = fitting.initial_model("two-state", t, x, F, fitting.estimate_velocity(t, x))
-    return diagnose_cv(start, t, x, F, model_name="two-state")
+    return diagnose(start, t, x, F, model_name="two-state")
 
 
 def _true_mass(t_fine_dt=2e-4):
@@ -36,13 +37,11 @@ def _true_mass(t_fine_dt=2e-4):
     return 2.0 / np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="diagnose_cv is a preview: the two-state base fit leaves 1.5 N "
-                          "against 0.1 N of noise on this file and the mass's held-out gain "
-                          "(z 0.85) does not clear z = 2")
 def test_point_to_point_mass_error_is_found_and_recovered():
+    """The mass is added (then, the base model's presliding mismatch being most of what is
+    left, a GMS base model may be too), with its value, and the held-out error falls."""
     d = _diagnose(*_p2p(("inertia",)))
-    assert "inertia" in d.final.added
+    assert d.final.added[0] == "inertia", d.summary()
     mass = float(next(e for e in d.model.effects if e.name == "inertia").mass)
     assert mass == pytest.approx(_true_mass(), rel=0.2)
     assert d.final.rmse_holdout < d.baseline.rmse_holdout

@@ -2,7 +2,7 @@
 with harmonics) and `angle_load` (``g_sin sin q + g_cos cos q``). Their terms against NumPy
 are in test_effects.py, their C translations in test_export_c.py, the diagnosis naming them
 on a foreign truth (slow) in test_diagnosis_foreign.py; here: what the screen searches, and
-that a linear file is not screened for them."""
+that a linear file is not searched for them."""
 
 import math
 
@@ -10,10 +10,8 @@ import numpy as np
 import pytest
 
 import jaxfric
-from fitting import _candidates
-from fitting._diagnose_context import effect_names
-from fitting._regimes import holdout_mask
-from fitting._screen import _base_jacobian, _screen
+from fitting._candidates import Data, start_effect
+from fitting._diagnose import effect_names
 from jaxfric import effects as fx, paper
 
 
@@ -31,22 +29,21 @@ def _joint(count, seed=0):
 
 def test_ripple_counts_are_every_integer_up_to_the_limit():
     x = np.linspace(0.0, 2.4, 5000)
-    counts = _candidates._ripple_counts(x, np.abs(np.diff(x)))
+    counts = [round(2 * math.pi / float(e.period)) for e in fx.Ripple.grid(None, x, None, None)]
     assert counts[0] == math.ceil(2 * math.pi / 2.4)
     np.testing.assert_array_equal(np.diff(counts), 1)
-    assert counts[-1] == _candidates.RIPPLE_MAX
+    assert counts[-1] == fx.RIPPLE_MAX
 
 
-def test_ripple_screen_finds_the_count_per_turn():
+def test_ripple_start_finds_the_count_per_turn():
+    """The diagnosis's start for a ripple (its grid point whose term best regresses the
+    residual) has the count per turn and the harmonics' amplitudes."""
     t, x, v, F = _joint(count=37)
     model = paper.tustin()
     resid = F - np.asarray(jaxfric.simulate(model, t, x, v))
-    test, _ = holdout_mask(t, 24)
-    J = _base_jacobian(model, t, x, v)
-    c = _screen("ripple", model, t, x, v, F, resid, J, ~test, test, 0.05, 3.0)
-    assert c.significant, c.evidence
-    assert round(2 * math.pi / float(c.effect.period)) == 37
-    amps = np.hypot(np.asarray(c.effect.rip_sin), np.asarray(c.effect.rip_cos))
+    e = start_effect("ripple", Data(t, x, v, F), model, resid)
+    assert round(2 * math.pi / float(e.period)) == 37
+    amps = np.hypot(np.asarray(e.rip_sin), np.asarray(e.rip_cos))
     np.testing.assert_allclose(amps[:2], [0.6, 0.3], atol=0.03)
     assert amps[2] < 0.03
 

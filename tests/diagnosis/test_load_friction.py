@@ -13,7 +13,7 @@ import pytest
 
 import fitting
 import jaxfric
-from fitting._diagnose_context import effect_names
+from fitting._diagnose import effect_names
 from jaxfric import effects as fx, paper
 from jaxfric.data import load
 

@@ -1,13 +1,12 @@
 """The diagnosis's decision by full refits and blocked cross-validation (`fitting._select`,
-`fitting._diagnose_cv`, `fitting._rules`): its parts on small cases, and one whole
+`fitting.diagnose`, `fitting._rules`): its parts on small cases, and one whole
 diagnosis of a Tustin model on a short record (fast: a memoryless base model)."""
 
 import numpy as np
 import pytest
 
 import jaxfric
-from fitting import _select as S
-from fitting._diagnose_cv import diagnose_cv
+from fitting import _select as S, diagnose
 from fitting._rules import DiagnosisRules
 from jaxfric import effects as fx
 
@@ -122,11 +121,11 @@ def _tustin_record(mass: float, seed: int = 0, duration: float = 20.0):
     return start, t, x, F, v, a
 
 
-def test_diagnose_cv_quick_case():
+def test_diagnose_quick_case():
     """The whole path on a tiny case: one candidate, one round, two folds."""
     start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
     rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
-    d = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
+    d = diagnose(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
                     rules=rules)
     assert d.final.added == ["inertia"]
     assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
@@ -135,15 +134,15 @@ def test_diagnose_cv_quick_case():
 
 
 @pytest.mark.slow
-def test_diagnose_cv_finds_a_mass_and_adds_nothing_to_its_clean_twin():
+def test_diagnose_finds_a_mass_and_adds_nothing_to_its_clean_twin():
     start, t, x, F, v, a = _tustin_record(mass=4.0)
-    d = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
+    d = diagnose(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
                     model_name="tustin", base_models=())
     assert d.final.added == ["inertia"]
     assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
     assert d.final.rmse_holdout < 0.5 * d.baseline.rmse_holdout
     assert d.candidates[0].name == "inertia" and d.candidates[0].significant
     start, t, x, F, v, a = _tustin_record(mass=0.0)
-    clean = diagnose_cv(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
+    clean = diagnose(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
                         base_models=())
     assert clean.final.added == []

@@ -1,5 +1,5 @@
-"""The diagnosis's significance rule (`fitting._evidence`), its velocity estimates
-(`fitting._derivatives`) and its plausibility checks (`fitting._plausibility`)."""
+"""The diagnosis's velocity estimates (`fitting._derivatives`) and its plausibility checks
+(`fitting._plausibility`)."""
 
 import equinox as eqx
 import numpy as np
@@ -7,7 +7,6 @@ import pytest
 
 import jaxfric
 from fitting._derivatives import describe, estimate_velocity
-from fitting._evidence import _autocorrelation_time, convincing, evidence, STRONG_SHARE, STRONG_T
 from fitting._plausibility import plausibility, steady_state
 
 
@@ -17,51 +16,6 @@ def _motion(n=6000, dt=1e-2, seed=0):
     t = np.arange(n) * dt
     v = np.repeat(rng.choice([-20e-3, -8e-3, -2e-3, 2e-3, 8e-3, 20e-3], n // 200), 200)
     return t, np.cumsum(v) * dt, v
-
-
-def test_a_regime_confined_effect_is_significant_where_a_block_test_is_weak():
-    # A drag acting only above 10 mm/s, one sixth of the samples, on noise: removing it is
-    # strong evidence where it acts.
-    t, _, v = _motion()
-    rng = np.random.default_rng(1)
-    drag = np.where(np.abs(v) > 10e-3, 0.3 * np.sign(v), 0.0)
-    ref = drag + 0.05 * rng.standard_normal(t.size)
-    new = ref - drag
-    test = (np.arange(t.size) // 250) % 3 == 2
-    ev = evidence(ref, new, test, v)
-    assert ev.t > 10 and ev.share > 0.9
-    assert 0.1 < ev.active < 0.5
-    assert "above" in ev.where
-
-
-def test_fitting_noise_is_not_evidence():
-    t, x, v = _motion()
-    rng = np.random.default_rng(2)
-    test = (np.arange(t.size) // 250) % 3 == 2
-    ts = []
-    for k in range(20):
-        noise = 0.05 * rng.standard_normal(t.size)
-        wiggle = 0.01 * np.sin(2 * np.pi * x / (1.3e-3 + 1e-4 * k))  # a term fitting nothing
-        ts.append(evidence(noise, noise - wiggle, test, v).t)
-    assert max(ts) < 3
-
-
-def test_a_large_held_out_gain_needs_less_consistency():
-    # The rule of `convincing`: t >= min_t, or t >= STRONG_T with at least STRONG_SHARE of
-    # the held-out residual variance removed (the foreign-truth asymmetry of
-    # tests/diagnosis/test_diagnosis_foreign.py is such a case: 79 %, t 2.6).
-    assert convincing(0.79, 2.6, 3.0)
-    assert not convincing(STRONG_SHARE - 0.01, 2.9, 3.0)  # size below, t below min_t
-    assert not convincing(0.99, STRONG_T - 0.01, 3.0)  # size alone is not enough
-    assert convincing(0.06, 3.0, 3.0)
-
-
-def test_a_smooth_mismatch_gets_long_batches():
-    # A slow, strongly autocorrelated gain (model mismatch) is counted in few batches.
-    rng = np.random.default_rng(3)
-    g = np.convolve(rng.standard_normal(5000), np.ones(200) / 200, mode="same")
-    assert _autocorrelation_time(g) > 50
-    assert _autocorrelation_time(rng.standard_normal(5000)) < 3
 
 
 def test_velocity_estimates():

@@ -1,0 +1,116 @@
+"""`Diagnosis`, what `fitting.diagnose` returns, and `Step`, one model of it (the baseline,
+or the model after an addition) with its errors."""
+
+import dataclasses
+
+import numpy as np
+
+from ._candidates import Candidate
+from ._result import FitResult, saved_model
+
+
+@dataclasses.dataclass
+class Step:
+    """After adding `added` and refitting: the fit, its RMSE on every sample and the RMSE of
+    the blocked cross-validation's held-out predictions (N), the RMSE per regime
+    (`fitting.regimes`)."""
+
+    added: list[str]
+    fit: FitResult
+    rmse: float
+    rmse_holdout: float
+    regimes: dict
+    rel_error: float = float("nan")  # rmse / RMS of the measured force
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """Outcome of `fitting.diagnose`: `baseline` and `steps` (one `Step` per addition),
+    `rankings` (every option of each round, `rankings[0]` on the baseline; an option
+    cross-validated has its held-out gain as ``score`` and its ``z``), `holdout` (all
+    False: no sample is set aside, the cross-validation holds every sample out once), and
+    the final model."""
+
+    baseline: Step
+    steps: list[Step]
+    rankings: list[list[Candidate]]
+    holdout: np.ndarray
+    model: object
+    model_name: str
+    velocity: str = ""  # how the velocity was obtained (`fitting._derivatives.describe`)
+    #: The velocity estimate as options (``{"method": ..., "window_s": ...}``; None for a
+    #: given velocity), so that `jaxfric simulate --params` can use the same.
+    derivatives: dict | None = None
+    #: Implausible features of the baseline and of the final model (`fitting._plausibility`).
+    warnings: dict = dataclasses.field(default_factory=dict)
+    #: The deadband (m or rad) the positions were played through before the diagnosis
+    #: (`jaxfric.motion.play`; the command line's ``--deadband``), or None.
+    deadband: float | None = None
+    #: Every option fitted, round by round: ``{"round", "effects", "sse_train",
+    #: "held_out_share_removed", "z", "physical", "added"}`` (None where not
+    #: cross-validated).
+    trials: list[dict] = dataclasses.field(default_factory=list)
+    #: For a long record, how the effects were searched on fewer samples; empty when every
+    #: sample was used throughout.
+    search: str = ""
+    #: What the diagnosis found beyond the effects, in words: "the base model is the limit
+    #: here: ..." when a richer base model won; empty otherwise.
+    finding: str = ""
+
+    @property
+    def candidates(self) -> list[Candidate]:
+        return self.rankings[0]
+
+    @property
+    def final(self) -> Step:
+        return self.steps[-1] if self.steps else self.baseline
+
+    def to_json(self) -> dict:
+        return {
+            "baseline": {"model": self.model_name, "rmse": self.baseline.rmse,
+                         "rmse_holdout": self.baseline.rmse_holdout,
+                         "rel_error": self.baseline.rel_error,
+                         "regimes": self.baseline.regimes},
+            "candidates": [c.to_json() for c in self.candidates],
+            "after": {"added": self.final.added, "rmse": self.final.rmse,
+                      "rmse_holdout": self.final.rmse_holdout,
+                      "rel_error": self.final.rel_error,
+                      "regimes": self.final.regimes,
+                      "steps": [{"added": s.added, "rmse": s.rmse,
+                                 "rmse_holdout": s.rmse_holdout} for s in self.steps]},
+            "velocity": self.velocity,
+            "derivatives": self.derivatives,
+            "warnings": self.warnings,
+            "trials": self.trials,
+            **({"search": self.search} if self.search else {}),
+            **({"finding": self.finding} if self.finding else {}),
+            **({} if self.deadband is None else {"deadband": self.deadband}),
+            "fitted_model": saved_model(self.model),
+        }
+
+    def summary(self) -> str:
+        lines = [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
+                 f"(held out {self.baseline.rmse_holdout:.4g} N, "
+                 f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
+        if self.velocity:
+            lines.append(f"velocity: {self.velocity}")
+        if self.search:
+            lines.append(f"search: {self.search}")
+        lines.append("candidates (refitted; held-out gain and z where cross-validated):")
+        for c in self.candidates:
+            mark = "*" if c.significant else " "
+            judged = np.isfinite(c.score)
+            lines.append(f" {mark} {c.name:<20} " + (
+                f"gain {c.score:7.3f}  z {c.t_stat:6.2f}  " if judged else " " * 25)
+                + c.evidence)
+        for before, s in zip([self.baseline, *self.steps], self.steps):
+            new = " + ".join(s.added[len(before.added):])
+            lines.append(f"+ {new:<20} RMSE {s.rmse:.4g} N (held out "
+                         f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
+        if not self.steps:
+            lines.append("nothing significant to add")
+        if self.finding:
+            lines.append(self.finding)
+        for which, flags in self.warnings.items():
+            lines += [f"warning ({which} model): {flag}" for flag in flags]
+        return "\n".join(lines)
