@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 import jaxfric
-from fitting.cli.main import main
 from jaxfric import paper
 from jaxfric._serialize import model_to_dict
 
@@ -35,15 +34,6 @@ def _signal(n=400, seed=0):
     F = np.asarray(jaxfric.simulate(paper.two_state(), t, x))
     return t, x, F + 0.02 * np.random.default_rng(seed).normal(size=n)
 
-
-@pytest.fixture
-def run(capsys):
-    """``run(*argv) -> (exit code, stdout, stderr)`` of the command line in this process."""
-    def _run(*argv):
-        rc = main([str(a) for a in argv])
-        out, err = capsys.readouterr()
-        return rc, out, err
-    return _run
 
 
 def _one_line(err: str, command: str) -> str:

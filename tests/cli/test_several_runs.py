@@ -51,14 +51,6 @@ def files(tmp_path_factory):
     return out
 
 
-@pytest.fixture
-def run(capsys):
-    def _run(*argv):
-        rc = main([str(a) for a in argv])
-        out, err = capsys.readouterr()
-        return rc, out, err
-    return _run
-
 
 @pytest.fixture(scope="module")
 def fitted(files, tmp_path_factory):
