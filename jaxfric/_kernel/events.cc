@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "rows.h"
+#include "stack.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
@@ -34,6 +35,8 @@ namespace ffi = xla::ffi;
 namespace {
 
 using jaxfric::for_rows;
+using jaxfric::Push;
+using jaxfric::push_slot;
 using jaxfric::lead_dims;
 using jaxfric::row_offsets;
 
@@ -80,23 +83,17 @@ void run_row(const Row& r, int64_t n, int32_t K) {
         const double den = s_r - S[top];
         const double theta = safe_div(std::fabs(x_r - X[top]), std::fabs(den));
         const bool wipe = theta > l1;
-        int32_t nb = wipe ? top : base;
-        int32_t nd = (wipe ? 1 : depth) + 1;
-        const bool over = nd > K;
-        if (over) {
-          nb = (nb + 1) % K;
-          nd = K;
-        }
-        const int32_t slot = (nb + nd - 1) % K;
+        const Push p = push_slot(wipe, top, base, depth, K);
+        const int32_t slot = p.slot;
         X[slot] = x_r;
         S[slot] = s_r;
         TH[slot] = theta;
         CL[slot] = theta <= l1;
         REF[slot] = static_cast<int32_t>(j);
-        if (over || (wipe && depth > 1)) zero_bottom = false;
-        ovf += over ? 1 : 0;
-        base = nb;
-        depth = nd;
+        if (p.over || (wipe && depth > 1)) zero_bottom = false;
+        ovf += p.over ? 1 : 0;
+        base = p.base;
+        depth = p.depth;
       }
       // `TwoState._close` (Rules 2 and 3): the run of closing levels top, top-2, ...
       const int32_t pushed_depth = depth;

@@ -33,6 +33,7 @@
 
 #include "dual.h"
 #include "rows.h"
+#include "stack.h"
 #include "vmath.h"
 #include "xla/ffi/api/ffi.h"
 
@@ -41,6 +42,8 @@ namespace ffi = xla::ffi;
 namespace {
 
 using jaxfric::for_rows;
+using jaxfric::Push;
+using jaxfric::push_slot;
 using jaxfric::lead_dims;
 using jaxfric::row_offsets;
 
@@ -290,24 +293,18 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
         const T h_r = H[top] + pi_only(sh, T(safe_div(x_r - X[top], den))) * den;
         const double theta = safe_div(fabs(x_r - X[top]), fabs(value(den)));
         const bool wipe = theta > l1;
-        int32_t nb = wipe ? top : base;
-        int32_t nd = (wipe ? 1 : depth) + 1;
-        const bool over = nd > K;
-        if (over) {
-          nb = (nb + 1) % K;
-          nd = K;
-        }
-        const int32_t slot = (nb + nd - 1) % K;
+        const Push p = push_slot(wipe, top, base, depth, K);
+        const int32_t slot = p.slot;
         X[slot] = x_r;
         H[slot] = h_r;
         S[slot] = s_r;
         SV[slot] = value(s_r);
         TH[slot] = theta;
         CL[slot] = theta <= l1;
-        if (over || (wipe && depth > 1)) zero_bottom = false;
-        ovf += over ? 1 : 0;
-        base = nb;
-        depth = nd;
+        if (p.over || (wipe && depth > 1)) zero_bottom = false;
+        ovf += p.over ? 1 : 0;
+        base = p.base;
+        depth = p.depth;
       }
       // `TwoState._close`
       int32_t lowest = -1;
