@@ -5,7 +5,13 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from ._fields import param
-from ._numerics import safe_div, safe_pow
+from ._numerics import safe_div
+
+
+#: ``exp(-exp(w))`` is exactly 0 in float64 for ``w`` above this (``exp(-745.2)`` underflows),
+#: so ``(|v|/Vs)**delta`` is not formed there: its derivative overflows (a steep curve,
+#: ``delta`` in the hundreds, at a few ``Vs``) and ``inf * 0`` would make the gradient NaN.
+_LOG_UNDERFLOW = 6.62
 
 
 class Stribeck(eqx.Module):
@@ -30,7 +36,12 @@ class Stribeck(eqx.Module):
     def magnitude(self, v: ArrayLike) -> Array:
         """``|s(v)|`` in N; equals ``Fs`` at ``v = 0`` (the limit), with finite gradients."""
         u = safe_div(jnp.abs(jnp.asarray(v)), self.Vs)
-        return self.Fc + (self.Fs - self.Fc) * jnp.exp(-safe_pow(u, self.delta))
+        pos = u > 0
+        w = self.delta * jnp.log(jnp.where(pos, u, 1.0))  # log((|v|/Vs)**delta)
+        keep = pos & (w < _LOG_UNDERFLOW)
+        decay = jnp.where(keep, jnp.exp(-jnp.exp(jnp.where(keep, w, 0.0))),
+                          jnp.where(pos, 0.0, 1.0))
+        return self.Fc + (self.Fs - self.Fc) * decay
 
     def __call__(self, v: ArrayLike) -> Array:
         """``s(v)`` in N (0 at ``v = 0``)."""

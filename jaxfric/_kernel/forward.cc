@@ -270,8 +270,10 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
       if constexpr (pre) {
         s = d * mag[i];
       } else {
-        const T u = safe_div(fabs(vj), Vs);
-        s = d * (Fc + dfs * exp(-spow(u, delta)));
+        // As `Stribeck.magnitude`: where exp(-u**delta) is exactly 0, so is its
+        // derivative (forming it would give inf * 0).
+        const T pw = spow(safe_div(fabs(vj), Vs), delta);
+        s = value(pw) > 749.9 ? T(d * Fc) : d * (Fc + dfs * exp(-pw));
       }
     } else {
       s = last_d * Fs;
