@@ -42,6 +42,7 @@ import time
 from collections.abc import Callable
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
@@ -52,7 +53,7 @@ from jaxfric._compile import jit
 from ._data import Dataset
 from ._problem import _force_scale, _Problem, _residuals
 from ._result import status_name
-from ._solve import _Core, _evaluate_impl, _finish_impl, MIN_R2, STUCK_COSINE
+from ._solve import _Core, _evaluate_impl, _finish_impl, EXACT_RESIDUAL, MIN_R2, STUCK_COSINE
 from ._stopping import decrease_left, STALL_PREDICTED, STALL_STEPS, Stopping, Tolerances
 from ._transforms import Exp, Sigmoid, Softplus
 
@@ -81,9 +82,8 @@ def _scaled_residuals(z, args):
     return _residuals(y_c + inv_d * z, (problem, data, scale))
 
 
-@jit
-def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
-           step_size, decrease, undetermined) -> _ChunkOut:
+def _chunk_impl(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
+                step_size, decrease, undetermined) -> _ChunkOut:
     """At most ``min(budget, CHUNK)`` solver steps from `y_c` in the coordinates
     ``z = (y - y_c) / inv_d``, each followed by the statistical rule (`Stopping`);
     residuals and Jacobian at the last accepted point are taken from the solver's state
@@ -108,8 +108,30 @@ def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
                      undetermined=count)
 
 
+_chunk = jit(_chunk_impl)
 _evaluate = jit(_evaluate_impl)
 _finish = jit(_finish_impl)
+
+
+@jit
+def _chunk_batch(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget, step_size,
+                 decrease, undetermined, vectorize=False) -> _ChunkOut:
+    """`_chunk` for B datasets (a leading axis on `data` and on every other array but the
+    tolerances): one after the other (`jax.lax.map`: a dataset whose budget is 0, being
+    done, costs nothing) or vmapped (`vectorize`)."""
+    def one(a):
+        return _chunk_impl(problem, *a[:2], a[2], solver, a[3], a[4], decrease, undetermined)
+
+    args = (y_c, inv_d, data, budget, step_size)
+    return jax.vmap(one)(args) if vectorize else jax.lax.map(one, args)
+
+
+@jit
+def _finish_batch(problem: _Problem, y, data: Dataset, resid, jac, force, overflow, result,
+                  num_steps) -> _Core:
+    """`_finish` for B datasets (a leading axis on every argument but `problem`)."""
+    return jax.vmap(lambda *a: _finish_impl(problem, *a))(y, data, resid, jac, force,
+                                                         overflow, result, num_steps)
 
 
 def _column_norms(jac) -> np.ndarray:
@@ -153,6 +175,13 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
             return (f"the steps stalled: the last {STALL_STEPS} gained under "
                     f"{tol.decrease:g} noise variances, {left:.2g} predicted (or the "
                     "solver's own test)", True)
+        ref_y = ref[2]
+        exact = np.sqrt(np.mean(np.asarray(out.resid) ** 2)) <= EXACT_RESIDUAL
+        cosine = _max_cosine(out.jac, out.resid)
+        if np.array_equal(np.asarray(out.y), np.asarray(ref_y)) and not exact and (
+                cosine > STUCK_COSINE):
+            return (f"the solver's own test fired without moving the fit although the "
+                    f"gradient is not nil (cosine {cosine:.1e}): the fit is stuck", False)
         return "the solver's own test (last step and residual change within rtol/atol)", True
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"
@@ -256,14 +285,19 @@ class Solved:
 def _run(problem: _Problem, y, d, data: Dataset, solver, budget: int, step_size,
          tol: Tolerances) -> _ChunkOut:
     """One chunk of at most `budget` steps from `y`, scaled by the column norms `d`."""
+    inv_d = jnp.asarray(_inverse_scale(d))
+    return _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
+                  step_size, jnp.asarray(tol.decrease, float),
+                  jnp.asarray(tol.undetermined, float))
+
+
+def _inverse_scale(d: np.ndarray) -> np.ndarray:
+    """``inv_d`` of the solver's coordinates from the column norms `d`."""
     # Columns far weaker than the strongest are scaled as if 1e-3 of it: a nearly flat
     # column (a parameter saturating its bounded transform) would otherwise get steps so
     # long that they push it further into its bound.
     floor = 1e-3 * d.max() if d.max() > 0 else 0.0
-    inv_d = jnp.asarray(1.0 / np.where(d > 0, np.maximum(d, floor), 1.0))
-    return _chunk(problem, y, inv_d, data, solver, jnp.asarray(budget, jnp.int32),
-                  step_size, jnp.asarray(tol.decrease, float),
-                  jnp.asarray(tol.undetermined, float))
+    return 1.0 / np.where(d > 0, np.maximum(d, floor), 1.0)
 
 
 def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
@@ -372,3 +406,81 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         core, problem = _with_full_covariance(start, y0, y, held, data, result, steps)
     names = [tuple(problem.layout.names[i] for i in k) for k in (held, unheld)]
     return Solved(core, reason + _held_words(*names), problem, names[0] + names[1])
+
+
+def solve_chunked_batch(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
+                        tol: Tolerances | None = None, vectorize: bool = False
+                        ) -> tuple[_Core, list[str]]:
+    """`solve_chunked` for B independent datasets (a leading axis on `data`), side by side:
+    each round runs one chunk of every dataset not yet done in one compiled call
+    (`_chunk_batch`; a dataset that is done gets a budget of 0), and each dataset follows
+    the same scaling, chunk sizes and stopping rules as `solve_chunked` on its own, so it
+    stops where `fit` would. Undetermined parameters are not held (the problem is shared).
+    Returns the batched core and why each dataset stopped."""
+    tol = Tolerances() if tol is None else tol
+    count = jax.tree.leaves(data)[0].shape[0]
+    y0 = np.asarray(y0)
+    ys = np.tile(y0, (count, 1))
+    steps = np.zeros(count, dtype=int)
+    d = np.zeros(ys.shape)
+    step_size = np.zeros(count)
+    history = [[(0, np.inf, y0)] for _ in range(count)]
+    done = np.zeros(count, dtype=bool) if max_steps > 0 else np.ones(count, dtype=bool)
+    reasons: list[str | None] = [None] * count
+    converged = [False] * count
+    results = [optx.RESULTS.successful] * count
+    last: list[_ChunkOut | None] = [None] * count
+    rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
+    while not done.all():
+        budget = np.array([0 if done[i] else _next_budget(steps[i], max_steps)
+                           for i in range(count)])
+        inv_d = np.stack([_inverse_scale(d[i]) for i in range(count)])
+        outs = _chunk_batch(problem, jnp.asarray(ys), jnp.asarray(inv_d), data, solver,
+                            jnp.asarray(budget, jnp.int32), jnp.asarray(step_size), *rule,
+                            vectorize)
+        outs = jax.tree.map(np.asarray, outs)
+        for i in np.flatnonzero(~done):
+            out = jax.tree.map(lambda a, i=i: a[i], outs)
+            last[i] = out
+            steps[i] += int(out.num_steps)
+            results[i] = out.result
+            cost = 0.5 * float(np.sum(out.resid**2))
+            if out.result != optx.RESULTS.successful or not np.isfinite(cost):
+                why = status_name(out.result) if np.isfinite(cost) else "non-finite cost"
+                reasons[i], ys[i], done[i] = f"the solver stopped ({why})", out.y, True
+                continue
+            reasons[i], converged[i] = _stop_reason(
+                out, int(budget[i]), cost, _reference(history[i], steps[i]), tol)
+            ys[i], step_size[i] = out.y, out.step_size
+            history[i].append((steps[i], cost, np.asarray(out.y)))
+            d[i] = np.maximum(d[i], _column_norms(out.jac))
+            done[i] = reasons[i] is not None or steps[i] >= max_steps
+    return _finish_all(problem, y0, data, ys, steps, last, results, reasons, converged,
+                       max_steps)
+
+
+def _finish_all(problem, y0, data, ys, steps, last, results, reasons, converged,
+                max_steps):
+    """The batched core of `solve_chunked_batch` from each dataset's last chunk."""
+    count = len(last)
+    cores = []
+    for i in range(count):
+        if reasons[i] is None:
+            results[i] = optx.RESULTS.nonlinear_max_steps_reached
+            reasons[i] = (f"max_steps = {max_steps} reached" if max_steps > 0 else
+                          "max_steps = 0: no step taken")
+        elif results[i] == optx.RESULTS.successful and not converged[i]:
+            results[i] = optx.RESULTS.nonlinear_divergence
+        if last[i] is None:  # no step taken: evaluated at the start
+            data_i = jax.tree.map(lambda a, i=i: a[i], data)
+            resid, jac, force, overflow = _evaluate(problem, jnp.asarray(y0), data_i)
+            cores.append((y0, resid, jac, force, overflow))
+        else:
+            out = last[i]
+            cores.append((ys[i], out.resid, out.jac, out.force, out.overflow))
+    stacked = [jnp.asarray(np.stack([np.asarray(c[k]) for c in cores])) for k in range(5)]
+    result = jax.tree.map(lambda *a: jnp.stack([jnp.asarray(v) for v in a]), *results)
+    y, resid, jac, force, overflow = stacked
+    core = _finish_batch(problem, y, data, resid, jac, force, overflow, result,
+                         jnp.asarray(steps))
+    return core, [str(r) for r in reasons]

@@ -31,6 +31,7 @@ parameters ``theta``, including those derived through a reparameterisation (``a.
 import dataclasses
 import warnings
 from collections.abc import Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import equinox as eqx
 import jax
@@ -40,7 +41,7 @@ import optimistix as optx
 
 import jaxfric
 
-from ._chunked import solve_chunked
+from ._chunked import solve_chunked, solve_chunked_batch
 from ._data import absurd_sample, check_dataset, Dataset, stack
 from ._per_run import has_per_run, run_model, shifted, with_runs
 from ._problem import _Problem, _problem
@@ -279,10 +280,11 @@ def fit_batch(
     `t`, `x`, `F`, `v`, `weights`, `a` (the acceleration, as for `fit`) are arrays of shape
     ``(B, n)``, or sequences of B 1-D arrays of different lengths (padded to the longest
     with weight-0 samples). Every dataset starts
-    from the same `model`. Other arguments are as for `fit`; of `tol`, the statistical
-    rule (`decrease`, `undetermined`) applies, tested after every step of each dataset's
-    loop, as does the solver's own test (`fitting._stopping.Tolerances`); undetermined
-    parameters are not held (one compiled loop).
+    from the same `model`. Other arguments are as for `fit`, and each dataset stops where
+    `fit` would stop on it: the same compiled chunks, column scaling and stopping rules
+    (`tol`), run for every dataset not yet done in one compiled call per round
+    (`fitting._chunked.solve_chunked_batch`); undetermined parameters are not held (the
+    problem is shared by the batch).
 
     **Returns:** a `FitResult` whose arrays have a leading axis B (``result[i]`` is dataset i;
     ``status`` is a list). `prediction` and `residuals` are ``(B, n)`` including any padding
@@ -295,17 +297,18 @@ def fit_batch(
     Dataset i's prediction is `jaxfric.simulate` of its own ``fit_model`` on its data, so
     the model saved from ``result[i]`` reproduces it bit for bit.
 
-    `vectorize`: ``False`` (default) solves the datasets one after the other inside the
-    compiled call (`jax.lax.map`), each until its own convergence; on a CPU this compiles
-    and runs faster than a vmapped solve (`benchmarks/throughput.py` compares both).
-    ``True`` vmaps the solver over the datasets (one loop for all, running until the
-    slowest dataset stops), for accelerators that gain from the batch.
+    `vectorize`: ``False`` (default) runs each round's chunks one dataset after the other
+    inside the compiled call (`jax.lax.map`), each until its own stopping rule; on a CPU
+    this compiles and runs faster than a vmapped solve (`benchmarks/throughput.py`
+    compares both). ``True`` vmaps each round's chunks over the datasets (one loop for
+    all, running until the slowest dataset's chunk ends), for accelerators that gain from
+    the batch.
 
     `devices`: spread the B datasets over these devices (``jax.devices()`` for all): they
     are split into one contiguous share per device, each share is placed on its device
-    and solved there by the same compiled function, and the devices run at once (JAX
-    dispatches asynchronously). Nothing is communicated between devices, so one slow
-    dataset only holds up its own share. The results equal the one-device results to the
+    and solved there, in its own thread, by the same compiled functions, so the devices
+    run at once. Nothing is communicated between devices, so one slow dataset only holds
+    up its own share. The results equal the one-device results to the
     solver's tolerance (tested with 4 host devices). For several machines, see the README
     ("Many devices and machines").
     """
@@ -337,7 +340,10 @@ def fit_batch(
     problem = problem.bounded(data)
     tol = Tolerances() if tol is None else tol
     rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
-    if devices is not None and len(devices) > 1:
+    if isinstance(solver, optx.AbstractLeastSquaresSolver):
+        core = _chunked_on_devices(problem, y0, data, solver, max_steps, tol, vectorize,
+                                   devices)
+    elif devices is not None and len(devices) > 1:
         core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices),
                                        vectorize, *rule)
     else:
@@ -347,3 +353,33 @@ def fit_batch(
     result = _assemble(problem, core, jnp.asarray(pred),
                        jnp.asarray(pred - np.asarray(stacked.F)))
     return _batch_as_simulated(result, checked, stacked.F)
+
+
+def _chunked_on_devices(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
+                        tol: Tolerances, vectorize: bool, devices):
+    """`solve_chunked_batch` of the B datasets of `data`, split into contiguous shares,
+    one per device, each share placed on its device and solved there in its own thread (the
+    loops between chunks are Python; the devices compute at once). The last share is
+    padded with copies of its last dataset, so that all shares have one shape (one
+    compilation), and the copies are dropped."""
+    if devices is None or len(devices) <= 1:
+        return solve_chunked_batch(problem, y0, data, solver, max_steps, tol, vectorize)[0]
+    count = jax.tree.leaves(data)[0].shape[0]
+    share = -(-count // len(devices))
+    parts = []
+    for k, device in enumerate(devices):
+        part = jax.tree.map(lambda a, k=k: np.asarray(a[k * share:(k + 1) * share]), data)
+        size = jax.tree.leaves(part)[0].shape[0]
+        if size == 0:
+            break
+        if size < share:
+            part = jax.tree.map(
+                lambda a, pad=share - size: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]),
+                part)
+        parts.append((size, jax.device_put((problem, y0, part), device)))
+    with ThreadPoolExecutor(len(parts)) as pool:
+        jobs = [(size, pool.submit(solve_chunked_batch, *placed, solver, max_steps, tol,
+                                   vectorize)) for size, placed in parts]
+        cores = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], job.result()[0])
+                 for size, job in jobs]
+    return jax.tree.map(lambda *a: np.concatenate(a), *cores)

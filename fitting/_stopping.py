@@ -60,9 +60,9 @@ class Tolerances:
     - `gtol`: largest cosine between a Jacobian column and the residual (MINPACK's test).
 
     The solver's own test (optimistix: the last step and every residual's change within
-    ``atol + rtol*|value|``) applies as well. `fit_batch` applies `decrease` and
-    `undetermined` (inside its one compiled loop) and the solver's test, not the chunk
-    rules `ftol`, `xtol`, `gtol`. Values are traced: changing them does not recompile.
+    ``atol + rtol*|value|``) applies as well. `fit`, `fit_datasets` and `fit_batch` apply
+    them all (`fit_batch` per dataset, without holding parameters). Values are traced:
+    changing them does not recompile.
     """
 
     decrease: float = 0.01
