@@ -22,7 +22,9 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
 - *Undetermined parameters*: once a rule fires, a free scalar parameter whose standard
   error in the solver's coordinates exceeds `Tolerances.undetermined` (a factor e for a
   positive parameter) is held at its start and the others go on (`undetermined_leaves`);
-  the result names it (`FitResult.undetermined`).
+  the result names it (`FitResult.undetermined`). The hold stands if that refit converges
+  and passes a likelihood-ratio test against the fit before the hold (`_hold_accepted`);
+  otherwise the fit before the hold is returned, the parameters named but not held.
 - *Trust region*: each call starts from the previous call's trust-region size (its
   Levenberg-Marquardt damping), not from the initial one.
 - `max_steps` and the tolerances are plain Python values here and traced values in the
@@ -47,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 from jaxtyping import Array
+from scipy.stats import chi2
 
 from jaxfric._compile import jit
 
@@ -305,8 +308,8 @@ def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
     if held:
         out += f"; undetermined by the data, held at their start: {', '.join(held)}"
     if loose:
-        out += (f"; large standard errors, not held (no steps left, or moving them back to "
-                f"their start costs fit): {', '.join(loose)}")
+        out += (f"; large standard errors, not held (no steps left, or the fit with them "
+                f"held at their start fits significantly worse): {', '.join(loose)}")
     return out
 
 
@@ -325,18 +328,22 @@ def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset
     return core, start
 
 
-def _costless(problem: _Problem, y0, y, leaves: list[int], data: Dataset, cost: float,
-              n_obs: int) -> bool:
-    """Whether moving `leaves` back to their start (where `_hold` puts them) raises the sum
-    of squares by at most one noise variance (a chi-square change of 1: the start lies in
-    the fit's one-standard-error region, so the data cannot tell the two apart). A large
-    standard error at a point far from the start (a bent start the fit has left) is no
-    proof, and holding there would pull the fit away from the data."""
-    coord = np.isin(problem.layout.coordinate_leaf(), leaves)
-    back = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
-    resid = np.asarray(_evaluate(problem, back, data)[0])
-    s2 = 2.0 * cost / max(n_obs - np.size(y), 1)
-    return 0.5 * float(np.sum(resid**2)) - cost <= 0.5 * s2
+def _hold_accepted(free_fit, reason, converged, result, out, held, n_obs: int) -> bool:
+    """Whether the fit with the undetermined leaves held at their start stands: it stopped
+    by a rule that converges, and its sum of squares exceeds that of the fit before the
+    hold (`free_fit`) by no more than chance allows, a likelihood-ratio test at 5 %
+    (``chi-square`` with one degree of freedom per held leaf, in noise variances of the
+    free fit). Otherwise the held leaves are no undetermined parameters, only ones whose
+    error is large where the fit stood (a bent start the fit has left, a saturated
+    transform), and holding them would pull the fit away from the data."""
+    if reason is None or not converged or result != optx.RESULTS.successful:
+        return False
+    free_cost, free_held = free_fit[7], free_fit[6]
+    k = len(held) - len(free_held)
+    p = int(np.sum(np.asarray(free_fit[5].layout.coordinate_mask())))
+    s2 = 2.0 * free_cost / max(n_obs - p, 1)
+    cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
+    return cost - free_cost <= 0.5 * s2 * float(chi2.ppf(0.95, k))
 
 
 def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
@@ -359,6 +366,7 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
     result, reason, converged, out = optx.RESULTS.successful, None, False, None
     held: list[int] = []
     unheld: list[int] = []
+    free_fit = None  # the fit as it stood before its first hold
     t0 = time.perf_counter()
     while steps < max_steps:
         budget = _next_budget(steps, max_steps)
@@ -386,15 +394,27 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
             more = undetermined_leaves(out.jac, out.resid, problem.layout, n_obs,
                                        tol.undetermined, set(pinned.tolist())
                                        ) if 2 * cost / n_obs <= 1 - MIN_R2 else []
-            if steps >= max_steps or not _costless(problem, y0, y, more, data, cost, n_obs):
+            if not more or steps >= max_steps:  # (no steps left to refit with them held)
                 unheld = more
-            if not more or unheld:
                 break
+            if free_fit is None:
+                free_fit = (y, out, result, reason, converged, problem, list(held), cost)
             # Held at the start; the others go on from here (the cost rules start again).
             held += more
             problem = _hold(problem, more)
             history = [(steps, np.inf, np.asarray(y))]
             reason, converged, step_size = None, False, jnp.zeros(())
+    if free_fit is not None and not _hold_accepted(free_fit, reason, converged, result, out,
+                                                   held, n_obs):
+        unheld = held[len(free_fit[6]):]
+        y, out, result, reason, converged, problem, held, _ = free_fit
+    return _solved(start, problem, y0, y, data, out, result, reason, converged, steps,
+                   max_steps, held, unheld)
+
+
+def _solved(start, problem, y0, y, data, out, result, reason, converged, steps, max_steps,
+            held, unheld) -> Solved:
+    """The `Solved` of `solve_chunked` from its last chunk `out` at `y`."""
     if reason is None:
         result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
                           f"max_steps = {max_steps} reached")
