@@ -85,8 +85,8 @@ def _scaled_residuals(z, args):
     return _residuals(y_c + inv_d * z, (problem, data, scale))
 
 
-def _chunk_impl(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
-                step_size, decrease, undetermined) -> _ChunkOut:
+def _chunk_steps(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
+                 step_size, decrease, undetermined) -> _ChunkOut:
     """At most ``min(budget, CHUNK)`` solver steps from `y_c` in the coordinates
     ``z = (y - y_c) / inv_d``, each followed by the statistical rule (`Stopping`);
     residuals and Jacobian at the last accepted point are taken from the solver's state
@@ -111,7 +111,12 @@ def _chunk_impl(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
                      undetermined=count)
 
 
-_chunk = jit(_chunk_impl)
+@jit
+def _chunk(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget, step_size,
+           decrease, undetermined) -> _ChunkOut:
+    """`_chunk_steps`, compiled (its name shows in JAX's logs and compilation cache)."""
+    return _chunk_steps(problem, y_c, inv_d, data, solver, budget, step_size, decrease,
+                        undetermined)
 _evaluate = jit(_evaluate_impl)
 _finish = jit(_finish_impl)
 
@@ -123,7 +128,7 @@ def _chunk_batch(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget, s
     tolerances): one after the other (`jax.lax.map`: a dataset whose budget is 0, being
     done, costs nothing) or vmapped (`vectorize`)."""
     def one(a):
-        return _chunk_impl(problem, *a[:2], a[2], solver, a[3], a[4], decrease, undetermined)
+        return _chunk_steps(problem, *a[:2], a[2], solver, a[3], a[4], decrease, undetermined)
 
     args = (y_c, inv_d, data, budget, step_size)
     return jax.vmap(one)(args) if vectorize else jax.lax.map(one, args)
