@@ -14,8 +14,9 @@ properties pytree beside the model, never inside it.
 - `fit_datasets(model, datasets, ...) -> FitResult`: several experiments (`Dataset`) at once;
   `run_model(model, i)`: the plain model of run i of a fit with per-run parameters.
 - `fit_batch(model, t, x, F, v=None, *, weights=None, ...) -> FitResult`: B independent fits
-  in one compiled call (arrays ``(B, n)``, or ragged lists padded with weight-0 samples;
-  one dataset after the other, or vmapped with ``vectorize=True``); each dataset gets its
+  side by side, each stopping where `fit` would (arrays ``(B, n)``, or ragged lists padded
+  with weight-0 samples; one dataset after the other, or vmapped with
+  ``vectorize=True``); each dataset gets its
   own result code, and a failing one does not affect the others.
 - `fit_staged(model, sliding, presliding=None, lag=None, *, joint=True, ...)
   -> StagedResult`: the paper's Sec. 5 procedure (Stribeck + sigma2 from constant-velocity

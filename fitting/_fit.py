@@ -275,7 +275,7 @@ def fit_batch(
     a=None,
     tol: Tolerances | None = None,
 ) -> FitResult:
-    """Fit `model` separately to each of B datasets in one compiled call.
+    """Fit `model` separately to each of B datasets, all of them in each compiled call.
 
     `t`, `x`, `F`, `v`, `weights`, `a` (the acceleration, as for `fit`) are arrays of shape
     ``(B, n)``, or sequences of B 1-D arrays of different lengths (padded to the longest

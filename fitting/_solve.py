@@ -111,7 +111,8 @@ def _remaining_step(jac, resid, mask, n_obs):
 def _solve_impl(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                 decrease=Tolerances.decrease, undetermined=Tolerances.undetermined) -> _Core:
     """The whole solve in one compiled loop of at most `max_steps` (static) steps: the
-    path of `fit_batch` and of minimisers (`fit` runs `_solve_chunked`). A least-squares
+    path of minimisers in `fit` and `fit_batch` (least-squares solvers run in chunks,
+    `fitting._chunked`). A least-squares
     solver stops on the same statistical rule as `fit` (`fitting._stopping.Stopping`,
     tested after every step) or on its own test."""
     scale = _force_scale(data)
