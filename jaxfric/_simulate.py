@@ -67,18 +67,20 @@ def _check_values(name: str, a) -> None:
 
 @jit
 def _run(model: AbstractFrictionModel, t, x, v, max_reversals=None, load=None,
-         a=None, event_pass: str = "auto") -> SimResult:
+         a=None, event_pass: str = "auto", parts: bool = True) -> SimResult:
     """`event_pass` (``JAXFRIC_EVENT_KERNEL``, read when tracing; `jaxfric._kernel`) is a
     static argument only so that changing it takes effect at the next call. A `TwoState`
     that runs in the compiled forward kernel gets the motion as given (the kernel derives
-    the velocity itself: no XLA pass over the samples before it)."""
+    the velocity itself: no XLA pass over the samples before it). Without `parts` the
+    result's parts are ``{}``: the kernel then writes the force only."""
     motion = make_motion(t, x, v, max_reversals, load, a)
     if type(model) is TwoState and _forward_kernel.supported(
             model, *(u for u in (t, x, v) if u is not None)):
         # `motion` is unused there, and compiled away.
-        force, parts, overflow = _forward_kernel.simulate(model, t, x, v, max_reversals)
-        return SimResult(force=force, parts=parts, overflow=overflow)
-    return model._simulate(motion)
+        force, got, overflow = _forward_kernel.simulate(model, t, x, v, max_reversals)
+        return SimResult(force=force, parts=got if parts else {}, overflow=overflow)
+    out = model._simulate(motion)
+    return out if parts else SimResult(force=out.force, parts={}, overflow=out.overflow)
 
 
 def _uses_reversal_bound(model, *arrays) -> bool:
@@ -233,7 +235,7 @@ def simulate(
     x, v = apply_deadband(x, v, deadband, t)
     model = jax.tree.map(_strong, model)
     max_reversals = _max_reversals(model, t, x, v, max_reversals)
-    result = _run(model, t, x, v, max_reversals, load, a, _kernel.mode())
+    result = _run(model, t, x, v, max_reversals, load, a, _kernel.mode(), full_output)
     if not isinstance(result.overflow, jax.core.Tracer) and int(result.overflow) > 0:
         warnings.warn(
             f"the memory stack overflowed {int(result.overflow)} time(s); the oldest reversal "
@@ -277,8 +279,8 @@ def _run_many(models, t, x, v, max_reversals, model_axis, chunk, full=True, load
     def one(item):
         m = eqx.combine(params if item["p"] is None else item["p"], static)
         got = {k: shared[k] if item[k] is None else item[k] for k in shared}
-        out = _run(m, got["t"], got["x"], got["v"], max_reversals, got["load"], got["a"])
-        return out if full else SimResult(force=out.force, parts={}, overflow=out.overflow)
+        return _run(m, got["t"], got["x"], got["v"], max_reversals, got["load"], got["a"],
+                    parts=full)
 
     return jax.lax.map(one, mapped, batch_size=max(1, min(chunk, B)))
 

@@ -62,7 +62,7 @@ FORWARD_JACOBIAN_SYMBOL = "JaxfricForwardJacobian"
 #: The sources compiled into one shared library (the .cc files) and the header they share.
 SOURCES = ("events.cc", "forward.cc", "rows.h", "stack.h", "dual.h", "vmath.h")
 #: -fno-trapping-math (floating-point exceptions are never enabled) lets the compiler turn the
-#: selects of the Stribeck pre-pass into SIMD code (vmath.h); values are unchanged.
+#: selects of the vectorised loops into SIMD code (vmath.h); values are unchanged.
 FLAGS = ("-O3", "-std=c++17", "-fno-trapping-math", "-shared", "-fPIC", "-pthread", "-w")
 ENV = "JAXFRIC_EVENT_KERNEL"
 
@@ -191,12 +191,22 @@ def available() -> bool:
         return _state["ok"]
 
 
+def is_float64(a) -> bool:
+    """Whether `a` (an array, a tracer or a Python number) is float64; an array's dtype is
+    read directly (`jnp.result_type` costs microseconds, and `jaxfric.simulate` asks this
+    for every parameter at every call)."""
+    dtype = getattr(a, "dtype", None)
+    if dtype is not None:
+        return dtype == np.float64
+    return jnp.result_type(a) == jnp.float64
+
+
 def use_kernel(*arrays) -> bool:
     """Whether the event pass of these arrays runs in the kernel (module docstring)."""
     chosen = mode()
     if chosen == "jax":
         return False
-    floats = all(jnp.result_type(a) == jnp.float64 for a in arrays)
+    floats = all(is_float64(a) for a in arrays)
     if chosen == "auto" and (jax.default_backend() != "cpu" or not floats):
         return False
     if not floats:

@@ -208,11 +208,123 @@ inline void store(double* out, double* jac, int64_t j, double y) {
 }
 inline void store(double* out, double* jac, int64_t j, const D& y) {
   out[j] = y.v;
-  std::copy(y.d, y.d + kParams, jac + j * kParams);
+  if (jac) std::copy(y.d, y.d + kParams, jac + j * kParams);
+}
+
+// `base + level` for base, level in [0, K): the slot of a stack level (a compare, not a %).
+inline int32_t slot_of(int32_t i, int32_t K) { return i >= K ? i - K : i; }
+
+// Pi and gamma = Pi - xi*kappa of the branch samples xi[0..m) (`pi_kappa`, clipping
+// included), for any T: one sample at a time.
+template <typename T>
+void shape_values(const Shape<T>& sh, const T* xi, int64_t m, T* pi, T* gamma) {
+  for (int64_t i = 0; i < m; ++i) {
+    T x = xi[i], p, k;
+    pi_kappa(sh, x, p, k);
+    pi[i] = p;
+    gamma[i] = p - x * k;
+  }
+}
+
+// The same for T = double, written without branches: every operation runs on every sample
+// and selects pick the results (no && of conditions, no conditional call), as in
+// `stribeck_block`, with vmath.h's exp, log and expm1, so that the loops vectorise: the
+// shape is most of a presliding sample's work. exp(e) is taken as expm1(e) + 1 (one
+// rounding apart). Agrees with `pi_kappa` to a few ulp (tests/core/test_forward_kernel.py).
+// The clipping: P < 1 else (1, 0); xi >= l1 (or l1 NaN) gives (1, 0).
+JAXFRIC_SIMD_CLONES
+void shape_values(const Shape<double>& sh, const double* xs, int64_t m, double* pi,
+                  double* gamma) {
+  using jaxfric::vexp;
+  using jaxfric::vexpm1;
+  using jaxfric::vlog;
+  const double l1 = sh.l1, l1s = l1 != 0.0 ? l1 : 1.0, l1on = l1 != 0.0 ? 1.0 : 0.0;
+  // u = safe_div(xi, l1), and the results from P, dP/du
+#define JAXFRIC_CLIP_AND_STORE(P, dP)                   \
+  const double k_in = ((dP) / l1s) * l1on;              \
+  const double p1 = (P) < 1.0 ? (P) : 1.0;              \
+  const double k1 = (P) < 1.0 ? k_in : 0.0;             \
+  const double p = xi < l1 ? p1 : 1.0;                  \
+  const double k = xi < l1 ? k1 : 0.0;                  \
+  pi[i] = p;                                            \
+  gamma[i] = p - xi * k;
+  if (sh.kind == 0) {
+    const double big_x = sh.big_x, beta = sh.beta, alpha = sh.alpha, b = sh.b, bb = sh.bb;
+    const double ea = sh.ea, c = sh.c, fbx = sh.f_big_x;
+    const double fbxs = fbx != 0.0 ? fbx : 1.0, fbxon = fbx != 0.0 ? 1.0 : 0.0;
+    for (int64_t i = 0; i < m; ++i) {
+      const double x0 = xs[i];
+      const double xi = x0 >= 0.0 ? x0 : 0.0;  // NaN -> 0, as `pi_kappa`
+      const double u = (xi / l1s) * l1on;
+      const double z = big_x * u, zb = z + beta;
+      const bool pos = zb > 0.0;
+      const double zbs = pos ? zb : 1.0;
+      const double pw_all = vexp(alpha * vlog(zbs));
+      const double pw = pos ? pw_all : 0.0;
+      const double e = b * (pw - bb);
+      const double em1 = vexpm1(e);
+      const double z3 = z * z * z;
+      const double num = -ea * em1 - c * (z3 * z);
+      const double dpw_all = alpha * pw / zbs;
+      const double dpw = pos ? dpw_all : 0.0;
+      const double dnum = -ea * (em1 + 1.0) * b * dpw - 4.0 * c * z3;
+      const double P = (num / fbxs) * fbxon;
+      const double dP = (dnum * big_x / fbxs) * fbxon;
+      JAXFRIC_CLIP_AND_STORE(P, dP)
+    }
+  } else if (sh.kind == 1) {
+    const double nn = sh.n;
+    for (int64_t i = 0; i < m; ++i) {
+      const double x0 = xs[i];
+      const double xi = x0 >= 0.0 ? x0 : 0.0;
+      const double u = (xi / l1s) * l1on;
+      const double w = 1.0 - u;
+      const bool pos = w > 0.0;
+      const double ws = pos ? w : 1.0;
+      const double y_all = vexp(nn * vlog(ws));
+      const double y = pos ? y_all : 0.0;
+      const double P = 1.0 - y;
+      const double dP_all = nn * y / ws;
+      const double dP = pos ? dP_all : 0.0;
+      JAXFRIC_CLIP_AND_STORE(P, dP)
+    }
+  } else {
+    const double alpha = sh.alpha, br = sh.br, lo = sh.lo, span = sh.span, kk = sh.k;
+    const double q = sh.q, spans = span != 0.0 ? span : 1.0, spanon = span != 0.0 ? 1.0 : 0.0;
+    const double den = sh.small ? 1.0 : std::expm1(-kk);
+    const double small = sh.small ? 1.0 : 0.0;  // a double: selects on it vectorise
+    for (int64_t i = 0; i < m; ++i) {
+      const double x0 = xs[i];
+      const double xi = x0 >= 0.0 ? x0 : 0.0;
+      const double u = (xi / l1s) * l1on;
+      const double ub = u + br;
+      const bool pos = ub > 0.0;
+      const double ubs = pos ? ub : 1.0;
+      const double pw_all = vexp(alpha * vlog(ubs));
+      const double pw = pos ? pw_all : 0.0;
+      const double w = ((pw - lo) / spans) * spanon;
+      const double dw_all = (alpha * pw / ubs / spans) * spanon;
+      const double dw = pos ? dw_all : 0.0;
+      const double em1 = vexpm1(-kk * w);
+      const double R_series = w * (1.0 + 0.5 * kk * (1.0 - w));
+      const double dR_series = 1.0 + 0.5 * kk * (1.0 - 2.0 * w);
+      const double R_exp = em1 / den, dR_exp = -kk * (em1 + 1.0) / den;
+      const double R = small > 0.0 ? R_series : R_exp;
+      const double dR = small > 0.0 ? dR_series : dR_exp;
+      const double u3 = u * u * u;
+      const double P = (R - q * (u3 * u)) / (1.0 - q);
+      const double dP = (dR * dw - 4.0 * q * u3) / (1.0 - q);
+      JAXFRIC_CLIP_AND_STORE(P, dP)
+    }
+  }
+#undef JAXFRIC_CLIP_AND_STORE
 }
 
 // One trajectory; T = double for the forces, T = D for the forces and their Jacobian with
-// respect to the packed parameters.
+// respect to the packed parameters. A block of samples at a time, in three passes: the
+// events (sequential: the stack, and what each sample's branch needs), the shape on the
+// block's branch samples (`shape_values`; for T = double vectorised), then the lag
+// recurrence and the outputs (sequential). Outputs that are null pointers are not written.
 template <typename T>
 void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
   T p[kParams];
@@ -237,130 +349,171 @@ void run_row(const Row& r, int64_t n, int32_t K, int kind, int64_t limit) {
   T s_prev(0.0), lag(0.0);
   int64_t reversals = 0;
   // With T = double the Stribeck magnitudes and the lag's decays come from the vectorised
-  // pre-pass (vmath.h), a block of samples at a time.
+  // pre-pass (vmath.h).
   constexpr bool pre = std::is_same_v<T, double>;
-  constexpr int64_t kBlock = 256;
-  double vel[pre ? kBlock : 1], mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
+  constexpr int64_t kBlock = pre ? 256 : 16;
+  double vel[kBlock], mag[pre ? kBlock : 1], decay[pre ? kBlock : 1];
+  T xi_b[kBlock], den_b[kBlock], h_b[kBlock], s_b[kBlock], a_b[kBlock], pi_b[kBlock],
+      gamma_b[kBlock];
+  bool charge[kBlock];
+  int32_t at[pre ? kBlock : 1];  // T = double: the block's samples that need the shape
+  double xi_pi[pre ? kBlock : 1], xi_gamma[pre ? kBlock : 1];
   double stribeck[5] = {value(Fs), value(Fc), value(Vs), value(delta), value(C)};
-  for (int64_t j = 0; j < n; ++j) {
-    const int64_t i = j % kBlock;
+  for (int64_t j0 = 0; j0 < n; j0 += kBlock) {
+    const int64_t m = std::min(kBlock, n - j0);
     if constexpr (pre) {
-      if (i == 0) {
-        jaxfric::stribeck_block(r.t, r.x, r.v, r.has_v, j, std::min(kBlock, n - j), stribeck,
-                                vel, mag, decay);
-      }
+      jaxfric::stribeck_block(r.t, r.x, r.v, r.has_v, j0, m, stribeck, vel, mag, decay);
     }
-    const double xj = r.x[j];
-    const double x_prev = j > 0 ? r.x[j - 1] : r.x[0];
-    const double dt = j > 0 ? r.t[j] - r.t[j - 1] : 0.0;
-    double vj;
-    if constexpr (pre) {
-      vj = vel[i];
-    } else {
-      vj = j > 0 ? jaxfric::motion_velocity(dt, xj - x_prev, r.v[j], r.has_v)
-                 : (r.has_v ? r.v[0] : 0.0);
-    }
-    const double d = sgn(vj);
-    const bool moving = d != 0.0;
-    const double prev_last_d = last_d;
-    if (moving) last_d = d;
-    // `Stribeck.effective`
-    T s;
-    if (vj != 0.0) {
+    // Pass 1: velocity, Stribeck value, events; the branch of every sample.
+    int32_t inside = 0;
+    for (int64_t i = 0; i < m; ++i) {
+      const int64_t j = j0 + i;
+      const double xj = r.x[j];
+      const double x_prev = j > 0 ? r.x[j - 1] : r.x[0];
+      const double dt = j > 0 ? r.t[j] - r.t[j - 1] : 0.0;
+      double vj;
       if constexpr (pre) {
-        s = d * mag[i];
+        vj = vel[i];
       } else {
-        // As `Stribeck.magnitude`: where exp(-u**delta) is exactly 0, so is its
-        // derivative (forming it would give inf * 0).
-        const T pw = spow(safe_div(fabs(vj), Vs), delta);
-        s = value(pw) > 749.9 ? T(d * Fc) : d * (Fc + dfs * exp(-pw));
+        vj = j > 0 ? jaxfric::motion_velocity(dt, xj - x_prev, r.v[j], r.has_v)
+                   : (r.has_v ? r.v[0] : 0.0);
+        vel[i] = vj;
       }
-    } else {
-      s = last_d * Fs;
-    }
-    const double sv = value(s);
-    const bool reversal = moving && prev_last_d != 0.0 && d != prev_last_d;
-    int32_t top = (base + depth - 1) % K;
-    bool event = reversal;
-    if (!event) {  // `TwoState._top_closes`
-      event = depth >= 2 && CL[top] && (depth >= 3 || zero_bottom) &&
-              safe_div(xj - X[top], sv - SV[top]) >= TH[top];
-    }
-    if (event) {
-      if (reversal) {  // `TwoState._push`
-        ++reversals;
-        const double x_r = x_prev;
-        const T s_r = prev_last_d * Fs;
-        const T den = s_r - S[top];
-        const T h_r = H[top] + pi_only(sh, T(safe_div(x_r - X[top], den))) * den;
-        const double theta = safe_div(fabs(x_r - X[top]), fabs(value(den)));
-        const bool wipe = theta > l1;
-        const Push p = push_slot(wipe, top, base, depth, K);
-        const int32_t slot = p.slot;
-        X[slot] = x_r;
-        H[slot] = h_r;
-        S[slot] = s_r;
-        SV[slot] = value(s_r);
-        TH[slot] = theta;
-        CL[slot] = theta <= l1;
-        if (p.over || (wipe && depth > 1)) zero_bottom = false;
-        ovf += p.over ? 1 : 0;
-        base = p.base;
-        depth = p.depth;
-      }
-      // `TwoState._close`
-      int32_t lowest = -1;
-      for (int32_t level = depth - 1; level >= 1; level -= 2) {
-        const int32_t sl = (base + level) % K;
-        const bool valid = CL[sl] && (level >= 2 || zero_bottom);
-        if (valid && safe_div(xj - X[sl], sv - SV[sl]) >= TH[sl]) {
-          lowest = level;
+      const double d = sgn(vj);
+      const bool moving = d != 0.0;
+      const double prev_last_d = last_d;
+      if (moving) last_d = d;
+      // `Stribeck.effective`
+      T s;
+      if (vj != 0.0) {
+        if constexpr (pre) {
+          s = d * mag[i];
         } else {
-          break;
+          // As `Stribeck.magnitude`: where exp(-u**delta) is exactly 0, so is its
+          // derivative (forming it would give inf * 0).
+          const T pw = spow(safe_div(fabs(vj), Vs), delta);
+          s = value(pw) > 749.9 ? T(d * Fc) : d * (Fc + dfs * exp(-pw));
         }
-      }
-      if (lowest >= 1) depth = (lowest == 1 ? 0 : lowest - 2) + 1;
-      top = (base + depth - 1) % K;
-    }
-    // `TwoState._branch`
-    const T den = s - S[top];
-    T xi = safe_div(xj - X[top], den);
-    T pi, kappa;
-    pi_kappa(sh, xi, pi, kappa);
-    const T gamma = pi - xi * kappa;
-    const T f_h = H[top] + pi * den;
-    // `TwoState._lag_coefficients`
-    T a;
-    if (reversal) {
-      a = T(0.0);
-    } else if (moving) {
-      if constexpr (pre) {
-        a = decay[i];
       } else {
-        a = exp(-C * safe_div(dt, fabs(s)));
+        s = last_d * Fs;
+      }
+      const double sv = value(s);
+      const bool reversal = moving && prev_last_d != 0.0 && d != prev_last_d;
+      int32_t top = slot_of(base + depth - 1, K);
+      bool event = reversal;
+      if (!event) {  // `TwoState._top_closes`
+        event = depth >= 2 && CL[top] && (depth >= 3 || zero_bottom) &&
+                safe_div(xj - X[top], sv - SV[top]) >= TH[top];
+      }
+      if (event) {
+        if (reversal) {  // `TwoState._push`
+          ++reversals;
+          const double x_r = x_prev;
+          const T s_r = prev_last_d * Fs;
+          const T den = s_r - S[top];
+          const T h_r = H[top] + pi_only(sh, T(safe_div(x_r - X[top], den))) * den;
+          const double theta = safe_div(fabs(x_r - X[top]), fabs(value(den)));
+          const bool wipe = theta > l1;
+          const Push ps = push_slot(wipe, top, base, depth, K);
+          const int32_t slot = ps.slot;
+          X[slot] = x_r;
+          H[slot] = h_r;
+          S[slot] = s_r;
+          SV[slot] = value(s_r);
+          TH[slot] = theta;
+          CL[slot] = theta <= l1;
+          if (ps.over || (wipe && depth > 1)) zero_bottom = false;
+          ovf += ps.over ? 1 : 0;
+          base = ps.base;
+          depth = ps.depth;
+        }
+        // `TwoState._close`
+        int32_t lowest = -1;
+        for (int32_t level = depth - 1; level >= 1; level -= 2) {
+          const int32_t sl = slot_of(base + level, K);
+          const bool valid = CL[sl] && (level >= 2 || zero_bottom);
+          if (valid && safe_div(xj - X[sl], sv - SV[sl]) >= TH[sl]) {
+            lowest = level;
+          } else {
+            break;
+          }
+        }
+        if (lowest >= 1) depth = (lowest == 1 ? 0 : lowest - 2) + 1;
+        top = slot_of(base + depth - 1, K);
+      }
+      // `TwoState._branch`: xi, and what F_h needs
+      const T den = s - S[top];
+      const T xi = safe_div(xj - X[top], den);
+      if constexpr (pre) {
+        // Only a branch sample inside the presliding range, xi (clipped to >= 0) < l1, needs
+        // the shape (`pi_kappa`); the others have Pi = gamma = 1. The block's inside samples
+        // are gathered for the vectorised `shape_values`.
+        const double xc = xi >= 0.0 ? xi : 0.0;
+        if (xc < l1) {
+          at[inside] = static_cast<int32_t>(i);
+          xi_b[inside++] = xc;
+        } else {
+          pi_b[i] = 1.0;
+          gamma_b[i] = 1.0;
+        }
+      } else {
+        xi_b[i] = xi;
+      }
+      den_b[i] = den;
+      h_b[i] = H[top];
+      s_b[i] = s;
+      // `TwoState._lag_coefficients`
+      if (reversal) {
+        a_b[i] = T(0.0);
+      } else if (moving) {
+        if constexpr (pre) {
+          a_b[i] = decay[i];
+        } else {
+          a_b[i] = exp(-C * safe_div(dt, fabs(s)));
+        }
+      } else {
+        a_b[i] = T(1.0);
+      }
+      // A direction-change step (a reversal or the first motion) charges nothing.
+      charge[i] = !(moving && d != prev_last_d);
+      if (r.depth) r.depth[j0 + i] = depth;
+    }
+    // Pass 2: Pi and gamma on the branches.
+    if constexpr (pre) {
+      shape_values(sh, xi_b, inside, xi_pi, xi_gamma);
+      for (int32_t k = 0; k < inside; ++k) {
+        pi_b[at[k]] = xi_pi[k];
+        gamma_b[at[k]] = xi_gamma[k];
       }
     } else {
-      a = T(1.0);
+      shape_values(sh, xi_b, m, pi_b, gamma_b);
     }
-    // A direction-change step (a reversal or the first motion) charges nothing.
-    const T b = (moving && d != prev_last_d) ? T(0.0) : T(-gamma * (s - s_prev));
-    lag = a * lag + b;
-    const T visc = sigma2 * vj;
-    store(r.force, r.jac_force, j, T(f_h + lag + visc));
-    store(r.hyst, r.jac_hyst, j, f_h);
-    r.lag[j] = value(lag);
-    r.viscous[j] = value(visc);
-    r.depth[j] = depth;
-    s_prev = s;
+    // Pass 3: F_h (Eq. 32), the lag, the force.
+    for (int64_t i = 0; i < m; ++i) {
+      const int64_t j = j0 + i;
+      const T f_h = h_b[i] + pi_b[i] * den_b[i];
+      const T b = charge[i] ? T(-gamma_b[i] * (s_b[i] - s_prev)) : T(0.0);
+      lag = a_b[i] * lag + b;
+      const T visc = sigma2 * vel[i];
+      store(r.force, r.jac_force, j, T(f_h + lag + visc));
+      if (r.hyst) {
+        store(r.hyst, r.jac_hyst, j, f_h);
+        r.lag[j] = value(lag);
+        r.viscous[j] = value(visc);
+      }
+      s_prev = s_b[i];
+    }
   }
   if (limit >= 0 && reversals > limit) {  // a bound below the true count: NaN, counted
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    std::fill(r.hyst, r.hyst + n, nan);
-    std::fill(r.lag, r.lag + n, nan);
     std::fill(r.force, r.force + n, nan);
+    if (r.hyst) {
+      std::fill(r.hyst, r.hyst + n, nan);
+      std::fill(r.lag, r.lag + n, nan);
+    }
     if constexpr (!std::is_same_v<T, double>) {  // as the JAX path's where(fits, F, nan)
-      std::fill(r.jac_hyst, r.jac_hyst + n * kParams, 0.0);
       std::fill(r.jac_force, r.jac_force + n * kParams, 0.0);
+      if (r.jac_hyst) std::fill(r.jac_hyst, r.jac_hyst + n * kParams, 0.0);
     }
     ovf += static_cast<int32_t>(reversals - limit);
   }
@@ -395,6 +548,12 @@ ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer
   const int64_t rows = static_cast<int64_t>(ox.size());
   const int kind = static_cast<int>(shape);
   const int64_t m = jac_force ? n * kParams : 0;
+  // The parts (and the hysteresis force's Jacobian) are optional: outputs of 0 elements
+  // are not written (null pointers).
+  const bool parts = hyst != nullptr;
+  if (!parts && jac_hyst != nullptr) {
+    return ffi::Error::InvalidArgument("forward pass: jac_hyst needs the parts");
+  }
   auto work = [&](int64_t lo, int64_t hi) {
     for (int64_t b = lo; b < hi; ++b) {
       Row r{t.typed_data() + ot[b] * n,
@@ -403,10 +562,10 @@ ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer
             has_v != 0,
             params.typed_data() + op[b] * kParams,
             force + b * n,
-            hyst + b * n,
-            lag + b * n,
-            viscous + b * n,
-            depth + b * n,
+            parts ? hyst + b * n : nullptr,
+            parts ? lag + b * n : nullptr,
+            parts ? viscous + b * n : nullptr,
+            parts ? depth + b * n : nullptr,
             overflow->typed_data() + b,
             jac_hyst ? jac_hyst + b * m : nullptr,
             jac_force ? jac_force + b * m : nullptr};
@@ -418,6 +577,21 @@ ffi::Error Forward(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x, ffi::Buffer
   return ffi::Error::Success();
 }
 
+// An output's data, or null for an output of 0 elements (a part not asked for).
+template <typename B>
+auto data_or_null(B& buf) -> decltype(buf->typed_data()) {
+  return buf->element_count() == 0 ? nullptr : buf->typed_data();
+}
+
+// The parts are all there (as long as the force) or all absent (0 elements).
+inline bool sized(ffi::ResultBuffer<ffi::F64>& force, ffi::ResultBuffer<ffi::F64>& hyst,
+                  ffi::ResultBuffer<ffi::F64>& lag, ffi::ResultBuffer<ffi::F64>& viscous,
+                  ffi::ResultBuffer<ffi::S32>& depth) {
+  const size_t n = hyst->element_count();
+  return (n == 0 || n == force->element_count()) && lag->element_count() == n &&
+         viscous->element_count() == n && depth->element_count() == n;
+}
+
 ffi::Error ForwardImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
                        ffi::Buffer<ffi::F64> v, ffi::Buffer<ffi::F64> params,
                        ffi::ResultBuffer<ffi::F64> force, ffi::ResultBuffer<ffi::F64> hyst,
@@ -425,8 +599,11 @@ ffi::Error ForwardImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
                        ffi::ResultBuffer<ffi::S32> depth, ffi::ResultBuffer<ffi::S32> overflow,
                        int64_t shape, int64_t stack_size, int64_t limit, int64_t has_v,
                        int64_t threads) {
-  return Forward<double>(t, x, v, params, force->typed_data(), hyst->typed_data(),
-                         lag->typed_data(), viscous->typed_data(), depth->typed_data(),
+  if (!sized(force, hyst, lag, viscous, depth)) {
+    return ffi::Error::InvalidArgument("forward pass: the parts have a wrong size");
+  }
+  return Forward<double>(t, x, v, params, force->typed_data(), data_or_null(hyst),
+                         data_or_null(lag), data_or_null(viscous), data_or_null(depth),
                          overflow, nullptr, nullptr, shape, stack_size, limit, has_v, threads);
 }
 
@@ -438,9 +615,14 @@ ffi::Error ForwardJacImpl(ffi::Buffer<ffi::F64> t, ffi::Buffer<ffi::F64> x,
                           ffi::ResultBuffer<ffi::F64> jac_force,
                           ffi::ResultBuffer<ffi::F64> jac_hyst, int64_t shape,
                           int64_t stack_size, int64_t limit, int64_t has_v, int64_t threads) {
-  return Forward<D>(t, x, v, params, force->typed_data(), hyst->typed_data(),
-                    lag->typed_data(), viscous->typed_data(), depth->typed_data(), overflow,
-                    jac_force->typed_data(), jac_hyst->typed_data(), shape, stack_size, limit,
+  if (!sized(force, hyst, lag, viscous, depth) ||
+      (jac_hyst->element_count() != 0 &&
+       jac_hyst->element_count() != jac_force->element_count())) {
+    return ffi::Error::InvalidArgument("forward pass: the parts have a wrong size");
+  }
+  return Forward<D>(t, x, v, params, force->typed_data(), data_or_null(hyst),
+                    data_or_null(lag), data_or_null(viscous), data_or_null(depth), overflow,
+                    jac_force->typed_data(), data_or_null(jac_hyst), shape, stack_size, limit,
                     has_v, threads);
 }
 

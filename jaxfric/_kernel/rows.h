@@ -4,12 +4,13 @@
 // repeats, as JAX's vmap with vmap_method="expand_dims" passes unbatched inputs) and one or
 // two trailing data dimensions; its outputs have the full batch dimensions. `row_offsets`
 // maps each output row to an input row; `for_rows` runs a row function over all rows, on
-// several std::threads when each gets enough work.
+// several std::threads when each gets enough work, the rows handed out as threads get free.
 
 #ifndef JAXFRIC_KERNEL_ROWS_H_
 #define JAXFRIC_KERNEL_ROWS_H_
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <thread>
 #include <vector>
@@ -50,9 +51,11 @@ std::vector<int64_t> lead_dims(const B& buf, size_t trailing) {
   return std::vector<int64_t>(d.begin(), d.end() - trailing);
 }
 
-// Run work(lo, hi) over rows [0, rows), split into contiguous chunks on at most `threads`
-// threads, each with at least 2^log2_share samples (n per row): starting a thread costs
-// tens of microseconds, so smaller shares run on the calling thread.
+// Run work(lo, hi) over rows [0, rows) on at most `threads` threads, each with at least
+// 2^log2_share samples (n per row): starting a thread costs tens of microseconds, so
+// smaller shares run on the calling thread. The threads take runs of rows from a shared
+// counter as they finish their last (not fixed halves): on a machine where another process
+// holds a core, or where rows differ in work, no thread waits idle for a slow one.
 template <typename F>
 void for_rows(int64_t rows, int64_t n, int64_t threads, int log2_share, F work) {
   const int64_t nthreads = std::min<int64_t>(
@@ -61,13 +64,21 @@ void for_rows(int64_t rows, int64_t n, int64_t threads, int log2_share, F work) 
     work(0, rows);
     return;
   }
+  // Runs of about 2^log2_share samples, and at least 8 runs per thread.
+  const int64_t grain = std::max<int64_t>(
+      1, std::min<int64_t>((int64_t{1} << log2_share) / std::max<int64_t>(n, 1),
+                           rows / (8 * nthreads)));
+  std::atomic<int64_t> next{0};
+  auto worker = [&]() {
+    for (;;) {
+      const int64_t lo = next.fetch_add(grain, std::memory_order_relaxed);
+      if (lo >= rows) return;
+      work(lo, std::min(rows, lo + grain));
+    }
+  };
   std::vector<std::thread> pool;
-  const int64_t chunk = (rows + nthreads - 1) / nthreads;
-  for (int64_t k = 1; k < nthreads; ++k) {
-    const int64_t lo = k * chunk, hi = std::min(rows, lo + chunk);
-    if (lo < hi) pool.emplace_back(work, lo, hi);
-  }
-  work(0, std::min(rows, chunk));
+  for (int64_t k = 1; k < nthreads; ++k) pool.emplace_back(worker);
+  worker();
   for (auto& th : pool) th.join();
 }
 

@@ -4,9 +4,13 @@
 // forward pass they are most of the time: every moving sample needs s(v) =
 // Fc + (Fs - Fc)*exp(-exp(delta*log(|v|/Vs))) and the lag's decay exp(-C*dt/|s|). Both
 // depend on the sample alone, so `stribeck_block` computes them for a block of samples in a
-// loop without branches, which the compiler turns into SIMD code (with -fno-trapping-math;
-// an AVX2 clone is picked at run time where GCC supports it), before the sequential loop
-// reads them.
+// loop without branches, which the compiler turns into SIMD code (with -fno-trapping-math),
+// before the sequential loop reads them; forward.cc's `shape_values` does the same for the
+// shape. With GCC on x86-64 Linux these loops (`JAXFRIC_SIMD_CLONES`) also get clones for
+// x86-64-v4 (AVX-512: 8 samples per instruction) and x86-64-v3 (AVX2: 4), the best the CPU
+// has picked at run time, in which a*b + c is one fused instruction (fp-contract=fast: the
+// polynomials' chains are half as long; results move by an ulp or so). Everything else is
+// compiled without contraction.
 //
 // `vexp`: k = round(x/ln2), r = x - k*ln2 (two-part ln2), exp(r) by its Taylor polynomial
 // of degree 13 (|r| <= ln2/2: truncation < 5e-18 relative), times 2^k built in the exponent
@@ -23,7 +27,9 @@
 #include <cstring>
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define JAXFRIC_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#define JAXFRIC_SIMD_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), \
+                 optimize("fp-contract=fast")))
 #else
 #define JAXFRIC_SIMD_CLONES
 #endif
@@ -68,6 +74,9 @@ inline double vexp(double x) {
 }
 
 inline double vlog(double x) {
+  // A subnormal x is scaled into the normal range first (2^54), its exponent corrected.
+  const bool tiny = x < 2.2250738585072014e-308;
+  x = tiny ? x * 18014398509481984.0 : x;
   const uint64_t b = double_to_bits(x);
   // The exponent as a double without an int-to-double conversion.
   double e = bits_to_double((b >> 52) | 0x4330000000000000ULL) - (4503599627370496.0 + 1023.0);
@@ -76,6 +85,7 @@ inline double vlog(double x) {
   const double half = 0.5 * m, e1 = e + 1.0;  // computed either way: no branch in the loop
   m = big ? half : m;
   e = big ? e1 : e;
+  e = tiny ? e - 54.0 : e;
   const double s = (m - 1.0) / (m + 1.0), s2 = s * s;
   double q = 1.0 / 21.0;
   q = q * s2 + 1.0 / 19.0;
@@ -89,6 +99,34 @@ inline double vlog(double x) {
   q = q * s2 + 1.0 / 3.0;
   q = q * s2 + 1.0;
   return e * 6.93147180369123816490e-01 + (2.0 * s * q + e * 1.90821492927058770002e-10);
+}
+
+// expm1(x): exp(r) - 1 for the reduced r by its own polynomial (no cancellation near 0),
+// then 2^k * expm1(r) + (2^k - 1).
+inline double vexpm1(double x) {
+  x = x < -708.0 ? -708.0 : x;
+  x = x > 709.0 ? 709.0 : x;
+  const double shift = 6755399441055744.0;
+  const double kd_shifted = x * 1.4426950408889634 + shift;
+  const uint64_t ki = double_to_bits(kd_shifted);
+  const double kd = kd_shifted - shift;
+  const double r = (x - kd * 6.93147180369123816490e-01) - kd * 1.90821492927058770002e-10;
+  double q = 1.0 / 87178291200.0;  // 1/14!; q = sum_{j>=2} r^(j-2)/j!
+  q = q * r + 1.0 / 6227020800.0;
+  q = q * r + 1.0 / 479001600.0;
+  q = q * r + 1.0 / 39916800.0;
+  q = q * r + 1.0 / 3628800.0;
+  q = q * r + 1.0 / 362880.0;
+  q = q * r + 1.0 / 40320.0;
+  q = q * r + 1.0 / 5040.0;
+  q = q * r + 1.0 / 720.0;
+  q = q * r + 1.0 / 120.0;
+  q = q * r + 1.0 / 24.0;
+  q = q * r + 1.0 / 6.0;
+  q = q * r + 0.5;
+  const double em = r + (r * r) * q;
+  const double two_k = bits_to_double((ki + 1023) << 52);
+  return two_k * em + (two_k - 1.0);
 }
 
 // The velocity of sample j > 0 (`jaxfric.motion.consistent_velocity` of the given one, or
