@@ -3,7 +3,7 @@
 docs/speed.md holds its prose; each table sits between ``<!-- table: NAME -->`` and
 ``<!-- end table -->`` and this script rewrites what is between them from
 ``benchmarks/throughput.json``, ``benchmarks/montecarlo_speed.json`` and the profiles in
-``benchmarks/profiling/profile_two_state*.json``. Run ``python
+``benchmarks/profiling/profile_two_state*.json`` and ``profile_fit_fixed.json``. Run ``python
 benchmarks/throughput_speed_page.py`` after re-running any of them (``--check`` exits 1 when
 the page is out of date, without writing).
 """
@@ -121,10 +121,23 @@ def lm_table(tp: dict | None) -> str:
     return _table(["case", "kernel s", "pure JAX s", "pure / kernel"], rows).replace("e+0", "e")
 
 
+def fit_fixed_table() -> str:
+    d = _load("benchmarks/profiling/profile_fit_fixed.json")
+    if d is None:
+        return "No results: `benchmarks/profiling/profile_fit_fixed.json` is missing."
+    one, five = d["fits"]
+    extra = max(five["num_steps"] - one["num_steps"], 1)
+    rows = [[stage, _g(one["median_s"][stage]), _g(five["median_s"][stage]),
+             _g((five["median_s"][stage] - one["median_s"][stage]) / extra)]
+            for stage in one["median_s"]]
+    return _table(["stage", "max_steps=1 s", "max_steps=5 s", "per further step s"],
+                  rows).replace("e-0", "e-")
+
+
 def render(text: str) -> str:
     tp, mc = _load("benchmarks/throughput.json"), _load("benchmarks/montecarlo_speed.json")
     tables = {"simulation": simulation_table(tp, mc), "profile": profile_table(),
-              "lm": lm_table(tp)}
+              "lm": lm_table(tp), "fit_fixed": fit_fixed_table()}
 
     def fill(m):
         name = m.group(1)

@@ -66,13 +66,26 @@ class _Core(eqx.Module):
     at_bound: Array  # one flag per leaf: free and pinned at a bound of its transform
 
 
-def _covariance(jac, resid, mask, n_obs):
+def _r_factor(jac, resid, mask):
+    """The ``(p + 1) x (p + 1)`` triangular factor R of the QR decomposition of
+    ``[J * mask, resid]``: its first p columns are R of the free Jacobian, the top of its
+    last column is ``Q^T resid``. One pass over the n x (p + 1) matrix gives what the
+    covariance's condition number and `_remaining_step` need; an SVD of the n x p Jacobian
+    with its left singular vectors takes several times longer at n = 1e5
+    (benchmarks/profiling/profile_fit_fixed.py)."""
+    jf = jnp.where(jnp.asarray(mask).astype(bool)[None, :], jac, 0.0)
+    return jnp.linalg.qr(jnp.concatenate([jf, resid[:, None]], axis=1), mode="r")
+
+
+def _covariance(jac, resid, mask, n_obs, r=None):
     """``s^2 (J^T J)^-1`` restricted to the free coordinates (zero rows/cols elsewhere).
 
     Columns are equilibrated first (unit norm) so that the eigen-decomposition sees the
     correlation structure, not the units; the condition number returned is that of the
     equilibrated free Jacobian (1 = orthogonal parameters; 1e8 = nearly collinear).
+    `r`: `_r_factor` of the same arguments, if already computed.
     """
+    r = _r_factor(jac, resid, mask) if r is None else r
     jac = jac * mask
     norms = jnp.linalg.norm(jac, axis=0)
     norms = jnp.where(norms > 0, norms, 1.0)
@@ -87,23 +100,28 @@ def _covariance(jac, resid, mask, n_obs):
     cov = s2 * inv / jnp.outer(norms, norms) * jnp.outer(mask, mask)
     # Singular values (descending; the fixed columns give zeros) of the p x p factor R of
     # jn = QR, which are those of jn: on the CPU, `svd(jn, compute_uv=False)` allocates an
-    # n x n buffer (80 GB at n = 1e5).
-    sv = jnp.linalg.svd(jnp.linalg.qr(jn, mode="r"), compute_uv=False)
+    # n x n buffer (80 GB at n = 1e5). jn's columns are J's scaled: its R is J's, scaled.
+    p = jac.shape[1]
+    sv = jnp.linalg.svd(r[:p, :p] / norms[None, :], compute_uv=False)
     k = jnp.maximum(n_free.astype(jnp.int32) - 1, 0)
     cond = jnp.where(n_free > 0, sv[0] / sv[k], 1.0)
     return cov, cond
 
 
-def _remaining_step(jac, resid, mask, n_obs):
+def _remaining_step(jac, resid, mask, n_obs, r=None):
     """Length, in standard errors, of the Gauss-Newton step left at the solver's last
     point: ``sqrt(z2)`` with ``z2 = dy^T (J^T J / s^2) dy = |J dy|^2 / s^2`` for the step
-    ``dy`` over the free coordinates and ``s^2 = RSS/n_obs``."""
-    jf = jnp.where(mask[None, :], jac, 0.0)
-    # |J dy|^2 is the squared projection of the residual onto the column space of J: from
-    # the thin SVD (n x p, never n x n), over the singular values that are not zero.
-    u, sv, _ = jnp.linalg.svd(jf, full_matrices=False)
+    ``dy`` over the free coordinates and ``s^2 = RSS/n_obs``. `r`: `_r_factor` of the same
+    arguments, if already computed."""
+    r = _r_factor(jac, resid, mask) if r is None else r
+    p = jac.shape[1]
+    # |J dy|^2 is the squared projection of the residual onto the column space of J, over
+    # the singular values that are not zero: with J = Q R and R = U S V^T, J's left singular
+    # vectors are Q U, so their products with the residual are U^T (Q^T resid), from R alone
+    # (never an n x n or n x p factor).
+    u, sv, _ = jnp.linalg.svd(r[:p, :p])
     keep = sv > 1e-10 * jnp.max(sv)
-    projected = jnp.sum(jnp.where(keep, u.T @ resid, 0.0) ** 2)
+    projected = jnp.sum(jnp.where(keep, u.T @ r[:p, p], 0.0) ** 2)
     z2 = projected / jnp.maximum(jnp.sum(resid**2) / n_obs, 1e-300)
     return jnp.sqrt(z2)
 
@@ -199,10 +217,12 @@ def _finish_impl(problem: _Problem, y, data: Dataset, resid, jac, force, overflo
     overflow = overflow.astype(jnp.int32)
     observed = data.weights > 0
     n_obs = jnp.sum(observed).astype(y.dtype)
-    cov_y, cond = _covariance(jac, resid, problem.layout.coordinate_mask(), n_obs)
+    mask = problem.layout.coordinate_mask()
+    r = _r_factor(jac, resid, mask)
+    cov_y, cond = _covariance(jac, resid, mask, n_obs, r)
     result = optx.RESULTS.where(  # see `FitResult`: dithering at the optimum is converged
         (result == optx.RESULTS.nonlinear_max_steps_reached) & (num_steps > 0)
-        & (_remaining_step(jac, resid, problem.layout.coordinate_mask(), n_obs) < 0.03),
+        & (_remaining_step(jac, resid, mask, n_obs, r) < 0.03),
         optx.RESULTS.successful, result)
 
     # Delta method: covariances of the reported (paper) parameters and of the fit
