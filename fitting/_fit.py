@@ -41,6 +41,7 @@ import optimistix as optx
 
 import jaxfric
 
+from ._blas import single_threaded_blas
 from ._chunked import solve_chunked, solve_chunked_batch
 from ._data import absurd_sample, check_dataset, Dataset, stack
 from ._per_run import has_per_run, run_model, shifted, with_runs
@@ -61,13 +62,14 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     solver = default_solver() if solver is None else solver
     problem = problem.bounded(data)
     undetermined: tuple[str, ...] = ()
-    if isinstance(solver, optx.AbstractLeastSquaresSolver):
-        solved = solve_chunked(problem, y0, data, solver, max_steps, tol or Tolerances(),
-                               progress)
-        core, stopped, problem = solved.core, solved.stopped, solved.problem
-        undetermined = solved.undetermined
-    else:  # a minimiser: one compiled loop (no Jacobian to scale by)
-        core, stopped = _solve(problem, y0, data, solver, max_steps), ""
+    with single_threaded_blas():  # (fitting._blas: OpenBLAS's spinning threads)
+        if isinstance(solver, optx.AbstractLeastSquaresSolver):
+            solved = solve_chunked(problem, y0, data, solver, max_steps,
+                                   tol or Tolerances(), progress)
+            core, stopped, problem = solved.core, solved.stopped, solved.problem
+            undetermined = solved.undetermined
+        else:  # a minimiser: one compiled loop (no Jacobian to scale by)
+            core, stopped = _solve(problem, y0, data, solver, max_steps), ""
     stopped = _honest(core, stopped, problem)
     _warn_overflow(core)
     # Sliced and subtracted in NumPy: op by op in JAX, each new length compiles kernels.
@@ -340,14 +342,15 @@ def fit_batch(
     problem = problem.bounded(data)
     tol = Tolerances() if tol is None else tol
     rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
-    if isinstance(solver, optx.AbstractLeastSquaresSolver):
-        core = _chunked_on_devices(problem, y0, data, solver, max_steps, tol, vectorize,
-                                   devices)
-    elif devices is not None and len(devices) > 1:
-        core = _solve_batch_on_devices(problem, y0, data, solver, max_steps, list(devices),
-                                       vectorize, *rule)
-    else:
-        core = _solve_batch(problem, y0, data, solver, max_steps, vectorize, *rule)
+    with single_threaded_blas():  # (fitting._blas: OpenBLAS's spinning threads)
+        if isinstance(solver, optx.AbstractLeastSquaresSolver):
+            core = _chunked_on_devices(problem, y0, data, solver, max_steps, tol, vectorize,
+                                       devices)
+        elif devices is not None and len(devices) > 1:
+            core = _solve_batch_on_devices(problem, y0, data, solver, max_steps,
+                                           list(devices), vectorize, *rule)
+        else:
+            core = _solve_batch(problem, y0, data, solver, max_steps, vectorize, *rule)
     _warn_overflow(core)
     pred = np.asarray(core.prediction)[:, 0, :]  # NumPy: see `_fit_stacked`
     result = _assemble(problem, core, jnp.asarray(pred),

@@ -20,6 +20,9 @@ its JAX results, so that a stage's time is its own, not the next one's):
   saved fit reproduces);
 - ``other``: the rest of the wall time of `fitting.fit` (Python between the stages).
 
+Each round also times the same fit with OpenBLAS's own threads (`fitting._blas` switched
+off: ``ENABLED = False``), reported as ``total_blas_threads_s``.
+
 Prints a table of medians over ``--repeats`` fits per ``max_steps`` and the difference per
 extra step; writes benchmarks/profiling/profile_fit_fixed.json (``--json``). The machine's
 load average is recorded: on a shared machine, trust the split rather than the seconds.
@@ -44,7 +47,7 @@ import numpy as np
 
 import fitting
 import jaxfric
-from fitting import _chunked, _fit
+from fitting import _blas, _chunked, _fit
 from jaxfric import paper
 
 
@@ -96,6 +99,9 @@ def timed_stages(seconds: dict):
 
 
 def profile(n: int, repeats: int, log=print) -> dict:
+    """Per ``max_steps`` (1, 5): the stages' medians with one BLAS thread during the fit
+    (`fitting._blas`, the default), and the total with OpenBLAS's own threads (interleaved
+    rounds; ``total_blas_threads_s``)."""
     truth = paper.two_state()
     t, x = mixed_path(n)
     F = synthetic_force(truth, t, x, np.random.default_rng(1))
@@ -105,7 +111,7 @@ def profile(n: int, repeats: int, log=print) -> dict:
         t0 = time.perf_counter()
         fitting.fit(start, t, x, F, max_steps=steps)
         first = time.perf_counter() - t0
-        runs = []
+        runs, threaded = [], []
         for _ in range(repeats):
             seconds: dict = {}
             with timed_stages(seconds):
@@ -115,14 +121,23 @@ def profile(n: int, repeats: int, log=print) -> dict:
             seconds["other"] = seconds["total"] - sum(
                 v for k, v in seconds.items() if k != "total")
             runs.append(seconds)
+            _blas.ENABLED = False
+            try:
+                t0 = time.perf_counter()
+                fitting.fit(start, t, x, F, max_steps=steps)
+                threaded.append(time.perf_counter() - t0)
+            finally:
+                _blas.ENABLED = True
         names = [s for s, _, _ in STAGES] + ["other", "total"]
         rows[steps] = {"max_steps": steps, "num_steps": int(res.num_steps),
                        "first_s": first,
                        "median_s": {k: statistics.median(r.get(k, 0.0) for r in runs)
                                     for k in names},
-                       "runs": runs}
+                       "total_blas_threads_s": statistics.median(threaded),
+                       "runs": runs, "blas_threads_runs_s": threaded}
         log(f"max_steps={steps}: {rows[steps]['median_s']['total']:.3f} s "
-            f"(first call {first:.1f} s)")
+            f"(first call {first:.1f} s); with OpenBLAS's threads "
+            f"{rows[steps]['total_blas_threads_s']:.3f} s")
     return rows
 
 
@@ -142,6 +157,8 @@ def main(argv=None) -> int:
     for k in one["median_s"]:
         a, b = one["median_s"][k], five["median_s"][k]
         print(f"| {k} | {a:.4f} | {b:.4f} | {(b - a) / extra:.4f} |")
+    a, b = one["total_blas_threads_s"], five["total_blas_threads_s"]
+    print(f"| total, OpenBLAS's threads | {a:.4f} | {b:.4f} | {(b - a) / extra:.4f} |")
     out = {"command": f"python benchmarks/profiling/profile_fit_fixed.py --n {args.n} "
                       f"--repeats {args.repeats}",
            "n": args.n, "repeats": args.repeats, "load_average": os.getloadavg(),
