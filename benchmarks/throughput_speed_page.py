@@ -130,9 +130,11 @@ def fit_fixed_table() -> str:
     rows = [[stage, _g(one["median_s"][stage]), _g(five["median_s"][stage]),
              _g((five["median_s"][stage] - one["median_s"][stage]) / extra)]
             for stage in one["median_s"]]
-    if "total_blas_threads_s" in one:
-        a, b = one["total_blas_threads_s"], five["total_blas_threads_s"]
-        rows.append(["total, OpenBLAS's own threads", _g(a), _g(b), _g((b - a) / extra)])
+    for key, label in (("total_blas_threads_s", "total, OpenBLAS's own threads"),
+                       ("total_gc_s", "total, garbage collector running")):
+        if key in one:
+            a, b = one[key], five[key]
+            rows.append([label, _g(a), _g(b), _g((b - a) / extra)])
     return _table(["stage", "max_steps=1 s", "max_steps=5 s", "per further step s"],
                   rows).replace("e-0", "e-")
 

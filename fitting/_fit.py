@@ -44,6 +44,7 @@ import jaxfric
 from ._blas import single_threaded_blas
 from ._chunked import solve_chunked, solve_chunked_batch
 from ._data import absurd_sample, check_dataset, Dataset, stack
+from ._gc import paused_gc
 from ._per_run import has_per_run, run_model, shifted, with_runs
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
@@ -62,7 +63,8 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     solver = default_solver() if solver is None else solver
     problem = problem.bounded(data)
     undetermined: tuple[str, ...] = ()
-    with single_threaded_blas():  # (fitting._blas: OpenBLAS's spinning threads)
+    # (fitting._blas: OpenBLAS's spinning threads; fitting._gc: Python's cyclic collector)
+    with single_threaded_blas(), paused_gc():
         if isinstance(solver, optx.AbstractLeastSquaresSolver):
             solved = solve_chunked(problem, y0, data, solver, max_steps,
                                    tol or Tolerances(), progress)
@@ -342,7 +344,7 @@ def fit_batch(
     problem = problem.bounded(data)
     tol = Tolerances() if tol is None else tol
     rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
-    with single_threaded_blas():  # (fitting._blas: OpenBLAS's spinning threads)
+    with single_threaded_blas(), paused_gc():  # (fitting._blas, fitting._gc)
         if isinstance(solver, optx.AbstractLeastSquaresSolver):
             core = _chunked_on_devices(problem, y0, data, solver, max_steps, tol, vectorize,
                                        devices)

@@ -21,7 +21,8 @@ its JAX results, so that a stage's time is its own, not the next one's):
 - ``other``: the rest of the wall time of `fitting.fit` (Python between the stages).
 
 Each round also times the same fit with OpenBLAS's own threads (`fitting._blas` switched
-off: ``ENABLED = False``), reported as ``total_blas_threads_s``.
+off: ``ENABLED = False``), reported as ``total_blas_threads_s``, and with Python's cyclic
+garbage collector left running (`fitting._gc` switched off), ``total_gc_s``.
 
 Prints a table of medians over ``--repeats`` fits per ``max_steps`` and the difference per
 extra step; writes benchmarks/profiling/profile_fit_fixed.json (``--json``). The machine's
@@ -47,7 +48,7 @@ import numpy as np
 
 import fitting
 import jaxfric
-from fitting import _blas, _chunked, _fit
+from fitting import _blas, _chunked, _fit, _gc
 from jaxfric import paper
 
 
@@ -99,9 +100,9 @@ def timed_stages(seconds: dict):
 
 
 def profile(n: int, repeats: int, log=print) -> dict:
-    """Per ``max_steps`` (1, 5): the stages' medians with one BLAS thread during the fit
-    (`fitting._blas`, the default), and the total with OpenBLAS's own threads (interleaved
-    rounds; ``total_blas_threads_s``)."""
+    """Per ``max_steps`` (1, 5): the stages' medians as a fit runs by default, and the
+    totals with OpenBLAS's own threads and with the garbage collector running (interleaved
+    rounds; module docstring)."""
     truth = paper.two_state()
     t, x = mixed_path(n)
     F = synthetic_force(truth, t, x, np.random.default_rng(1))
@@ -111,7 +112,7 @@ def profile(n: int, repeats: int, log=print) -> dict:
         t0 = time.perf_counter()
         fitting.fit(start, t, x, F, max_steps=steps)
         first = time.perf_counter() - t0
-        runs, threaded = [], []
+        runs, threaded, collected = [], [], []
         for _ in range(repeats):
             seconds: dict = {}
             with timed_stages(seconds):
@@ -121,23 +122,27 @@ def profile(n: int, repeats: int, log=print) -> dict:
             seconds["other"] = seconds["total"] - sum(
                 v for k, v in seconds.items() if k != "total")
             runs.append(seconds)
-            _blas.ENABLED = False
-            try:
-                t0 = time.perf_counter()
-                fitting.fit(start, t, x, F, max_steps=steps)
-                threaded.append(time.perf_counter() - t0)
-            finally:
-                _blas.ENABLED = True
+            for module, into in ((_blas, threaded), (_gc, collected)):
+                module.ENABLED = False
+                try:
+                    t0 = time.perf_counter()
+                    fitting.fit(start, t, x, F, max_steps=steps)
+                    into.append(time.perf_counter() - t0)
+                finally:
+                    module.ENABLED = True
         names = [s for s, _, _ in STAGES] + ["other", "total"]
         rows[steps] = {"max_steps": steps, "num_steps": int(res.num_steps),
                        "first_s": first,
                        "median_s": {k: statistics.median(r.get(k, 0.0) for r in runs)
                                     for k in names},
                        "total_blas_threads_s": statistics.median(threaded),
-                       "runs": runs, "blas_threads_runs_s": threaded}
+                       "total_gc_s": statistics.median(collected),
+                       "runs": runs, "blas_threads_runs_s": threaded,
+                       "gc_runs_s": collected}
         log(f"max_steps={steps}: {rows[steps]['median_s']['total']:.3f} s "
             f"(first call {first:.1f} s); with OpenBLAS's threads "
-            f"{rows[steps]['total_blas_threads_s']:.3f} s")
+            f"{rows[steps]['total_blas_threads_s']:.3f} s, with the collector "
+            f"{rows[steps]['total_gc_s']:.3f} s")
     return rows
 
 
@@ -157,8 +162,10 @@ def main(argv=None) -> int:
     for k in one["median_s"]:
         a, b = one["median_s"][k], five["median_s"][k]
         print(f"| {k} | {a:.4f} | {b:.4f} | {(b - a) / extra:.4f} |")
-    a, b = one["total_blas_threads_s"], five["total_blas_threads_s"]
-    print(f"| total, OpenBLAS's threads | {a:.4f} | {b:.4f} | {(b - a) / extra:.4f} |")
+    for key, label in (("total_blas_threads_s", "total, OpenBLAS's threads"),
+                       ("total_gc_s", "total, garbage collector running")):
+        a, b = one[key], five[key]
+        print(f"| {label} | {a:.4f} | {b:.4f} | {(b - a) / extra:.4f} |")
     out = {"command": f"python benchmarks/profiling/profile_fit_fixed.py --n {args.n} "
                       f"--repeats {args.repeats}",
            "n": args.n, "repeats": args.repeats, "load_average": os.getloadavg(),
