@@ -6,11 +6,12 @@
 // depend on the sample alone, so `stribeck_block` computes them for a block of samples in a
 // loop without branches, which the compiler turns into SIMD code (with -fno-trapping-math),
 // before the sequential loop reads them; forward.cc's `shape_values` does the same for the
-// shape. With GCC on x86-64 Linux these loops (`JAXFRIC_SIMD_CLONES`) also get clones for
-// x86-64-v4 (AVX-512: 8 samples per instruction) and x86-64-v3 (AVX2: 4), the best the CPU
-// has picked at run time, in which a*b + c is one fused instruction (fp-contract=fast: the
-// polynomials' chains are half as long; results move by an ulp or so). Everything else is
-// compiled without contraction.
+// shape. With GCC 12 or later on x86-64 Linux these loops (`JAXFRIC_SIMD_CLONES`) also get
+// clones for x86-64-v4 (AVX-512: 8 samples per instruction) and x86-64-v3 (AVX2: 4), the
+// best the CPU has picked at run time, in which a*b + c is one fused instruction
+// (fp-contract=fast: the polynomials' chains are half as long; results move by an ulp or
+// so). Everything else is compiled without contraction. `vexpm1` is `vexp` with the
+// polynomial of exp(r) - 1 (no cancellation near 0).
 //
 // `vexp`: k = round(x/ln2), r = x - k*ln2 (two-part ln2), exp(r) by its Taylor polynomial
 // of degree 13 (|r| <= ln2/2: truncation < 5e-18 relative), times 2^k built in the exponent
@@ -26,10 +27,14 @@
 #include <cstdint>
 #include <cstring>
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    __GNUC__ >= 12
 #define JAXFRIC_SIMD_CLONES \
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), \
                  optimize("fp-contract=fast")))
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+// (GCC before 12: the level names may be unknown; an AVX2 clone without FMA.)
+#define JAXFRIC_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define JAXFRIC_SIMD_CLONES
 #endif
