@@ -60,7 +60,7 @@ FORWARD_SYMBOL = "JaxfricForwardPass"
 FORWARD_JACOBIAN_TARGET = "jaxfric_forward_jacobian"
 FORWARD_JACOBIAN_SYMBOL = "JaxfricForwardJacobian"
 #: The sources compiled into one shared library (the .cc files) and the header they share.
-SOURCES = ("events.cc", "forward.cc", "rows.h", "stack.h", "dual.h", "vmath.h")
+SOURCES = ("events.cc", "forward.cc", "rows.h", "stack.h", "dual.h", "vmath.h", "shape.h")
 #: -fno-trapping-math (floating-point exceptions are never enabled) lets the compiler turn the
 #: selects of the vectorised loops into SIMD code (vmath.h); values are unchanged.
 FLAGS = ("-O3", "-std=c++17", "-fno-trapping-math", "-shared", "-fPIC", "-pthread", "-w")
