@@ -233,3 +233,30 @@ def test_under_an_effect_the_base_model_uses_the_kernel(monkeypatch):
         text = eqx.filter_jit(lambda m, mo: m._simulate(mo).force).lower(model, mo).as_text()
         assert ("jaxfric_forward_pass" in text) is (mode == "kernel")
     np.testing.assert_allclose(out["kernel"], out["jax"], rtol=RTOL, atol=RTOL * 30)
+
+
+def _kernel_calls(fn, *args):
+    """The forward kernel's calls in the compiled program of `fn`: (target, HLO line)."""
+    text = jax.jit(fn).lower(*args).compile().as_text()
+    return [(t, line) for line in text.splitlines() for t in (_kernel.FORWARD_TARGET,
+            _kernel.FORWARD_JACOBIAN_TARGET) if f'custom_call_target="{t}"' in line]
+
+
+def test_force_only_programs_have_the_kernel_write_the_force_only():
+    # A program that uses the force alone (simulate without full_output, a fit's Jacobian)
+    # has one kernel call whose parts are 0 elements: the parts' call is compiled away.
+    with _kernel.forced("kernel"):
+        m = paper.two_state()
+        t, x, _ = sine_path(300)
+        t, x = jnp.asarray(t), jnp.asarray(x)
+        calls = _kernel_calls(lambda t, x: jaxfric.simulate(m, t, x), t, x)
+        assert [c for c, _ in calls] == [_kernel.FORWARD_TARGET]
+        assert "f64[0]" in calls[0][1]
+        calls = _kernel_calls(lambda m: jax.jacfwd(
+            lambda mm: jaxfric.simulate(mm, t, x))(m), m)
+        assert [c for c, _ in calls] == [_kernel.FORWARD_JACOBIAN_TARGET]
+        assert "f64[0,12]" in calls[0][1]
+        # With the parts used, they are written (by a second call).
+        calls = _kernel_calls(
+            lambda t, x: jaxfric.simulate(m, t, x, full_output=True).parts["lag"], t, x)
+        assert len(calls) == 1 and "f64[0]" not in calls[0][1]
