@@ -120,7 +120,8 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (no more than fitting noise removes, 2 q s^2)")
-           + (f"; not physical: {o.physical}" if o.physical else ""))
+           + (f"; not physical: {o.physical}" if o.physical else "")
+           + (f"; not converged (no evidence): {o.unconverged}" if o.unconverged else ""))
     if effect is not None:
         why = f"{effect.describe()}; {why}"
     return Candidate(name=o.name, effect=effect, score=float(o.gain if judged else np.nan),
@@ -245,6 +246,7 @@ def diagnose(
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
                "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
+               "converged": not o.unconverged,
                "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
     if finding:
         log(finding)
