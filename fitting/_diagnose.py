@@ -7,11 +7,13 @@ parameter not already in the model (those of an angle only on rotary data, those
 only with a load signal), and a richer base model (a GMS with 20 elements).
 
 A long record (at least twice `search_samples` samples) is searched on one sample in
-``k = n // search_samples`` (the full-rate velocity and acceleration estimates at those
-samples, so an effect's relation to them is kept; the force is not averaged, which would
-smear short accelerations); the baseline and the final model are then refitted on every
-sample from where the search left them, and the errors of those refits are reported (the
-held-out errors are the search's cross-validation).
+``k = n // search_samples``, halved until that copy is faithful (`_faithful_step`: the
+start model simulated on it is within the force's noise of its full-rate simulation). The
+copy keeps the full-rate velocity and acceleration estimates at its samples, so an
+effect's relation to them is kept; the force is not averaged, which would smear short
+accelerations. The baseline and the final model are then refitted on every sample from
+where the search left them, and the errors of those refits are reported (the held-out
+errors are the search's cross-validation).
 """
 
 from collections.abc import Callable, Sequence
@@ -84,6 +86,44 @@ def _record(t, x, F, v, a, load, derivatives, velocity_window) -> tuple[Data, st
     return Data(t, x, np.asarray(v, np.float64), F, a, load), how
 
 
+def noise_level(F) -> float:
+    """A robust estimate of the force's white noise (N): the median absolute deviation of
+    its sample-to-sample changes over sqrt(2) (steps and reversals are rare outliers)."""
+    d = np.diff(np.asarray(F, float))
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+
+
+def _subsample(full: Data, k: int) -> Data:
+    return Data(*(None if arr is None else arr[::k] for arr in
+                  (full.t, full.x, full.v, full.F, full.a, full.load)))
+
+
+def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
+    """The largest of ``k, k // 2, ..., 1`` whose search copy (one sample in k) is
+    faithful: the start `model` simulated on the copy differs from it simulated on every
+    sample (at the copy's samples) by at most the force's noise (`noise_level`), RMS. A
+    state model integrates its presliding and lag over each sampling step, so a coarser
+    copy is another discretisation: where moves start and stop within a few samples, its
+    error can exceed every effect sought, and would be judged as the base model's
+    mismatch. Returns k and what was measured, in words."""
+    if k <= 1:
+        return 1, ""
+    sigma = noise_level(full.F)
+    ref = full.simulate(model)
+    words = ""
+    while k > 1:
+        err = float(np.sqrt(np.mean((_subsample(full, k).simulate(model) - ref[::k]) ** 2)))
+        if err <= sigma:
+            return k, (f"{words}its simulation differs from the full-rate one by {err:.2g} N "
+                       f"RMS, within the force's noise, {sigma:.2g} N")
+        words += f"one sample in {k} would change the simulation by {err:.2g} N RMS; "
+        log(f"one sample in {k} would change the start model's simulation by {err:.2g} N "
+            f"RMS, more than the force's noise ({sigma:.2g} N): a denser copy")
+        k //= 2
+    return 1, (f"not subsampled: {words.rstrip('; ')}, more than the force's noise "
+               f"({sigma:.2g} N)")
+
+
 def _prune(model, on):
     """The superset `model` with only the effects in `on` (indices), the base plain if none."""
     effects = getattr(model, "effects", ())
@@ -120,7 +160,8 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (no more than fitting noise removes, 2 q s^2)")
-           + (f"; not physical: {o.physical}" if o.physical else ""))
+           + (f"; not physical: {o.physical}" if o.physical else "")
+           + (f"; not converged (no evidence): {o.unconverged}" if o.unconverged else ""))
     if effect is not None:
         why = f"{effect.describe()}; {why}"
     return Candidate(name=o.name, effect=effect, score=float(o.gain if judged else np.nan),
@@ -188,11 +229,11 @@ def diagnose(
     full, how = _record(t, x, F, v, a, load, derivatives, velocity_window)
     t = full.t
     k = t.size // search_samples if search_samples and t.size >= 2 * search_samples else 1
+    k, faithful = _faithful_step(full, model, k, log)
     pick = slice(None, None, k)
-    copy = Data(*(None if arr is None else arr[pick] for arr in
-                  (full.t, full.x, full.v, full.F, full.a, full.load)))
-    search = (f"effects searched on one sample in {k} ({copy.t.size} samples); the baseline "
-              f"and final model refitted on all {t.size}") if k > 1 else ""
+    copy = _subsample(full, k)
+    search = (f"effects searched on one sample in {k} ({copy.t.size} samples; {faithful}); "
+              f"the baseline and final model refitted on all {t.size}") if k > 1 else faithful
     if search:
         log(search)
     folds = (time_block_folds(copy.t, rules.blocks, rules.folds) if folds is None else
@@ -245,6 +286,7 @@ def diagnose(
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
                "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
+               "converged": not o.unconverged,
                "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
     if finding:
         log(finding)

@@ -24,7 +24,10 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    current model, is refitted from its own start (`Fitter.cross_validate`);
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, and every fitted
-   parameter is in its physical range (``param(..., physical=(lo, hi))``); the qualifying
+   parameter is in its physical range (``param(..., physical=(lo, hi))``) and every fit
+   of it and every fold fit of the current model converged (a fold fit that stops at its
+   step limit is continued once, from where it stopped, for the current model and the
+   option alike; one that still has not converged is no evidence); the qualifying
    option with the largest ``z`` is added (the strongest evidence first, as forward
    selection by the partial F statistic: a base-model change that removes more error
    less consistently does not push out an effect the data support more firmly);
@@ -40,6 +43,7 @@ from collections.abc import Callable, Sequence
 import equinox as eqx
 import jax
 import numpy as np
+import optimistix as optx
 
 from jaxfric import effects as fx
 from jaxfric._fields import parameter_info
@@ -90,10 +94,20 @@ class Option:
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     fold_preds: list = dataclasses.field(default_factory=list)
     fold_models: list = dataclasses.field(default_factory=list)
+    unconverged: str = ""  # "" when every fit of it converged, else which did not
+
+    def _note(self, what: str, res) -> None:
+        if not _converged(res):
+            self.unconverged += ("; " if self.unconverged else "") + f"{what}: {res.stopped}"
 
     @property
     def name(self) -> str:
         return " + ".join(self.names)
+
+
+def _converged(res) -> bool:
+    """Whether a fit's stopping rule fired (not its step limit, not a failed solve)."""
+    return bool(np.asarray(res.result == optx.RESULTS.successful))
 
 
 class Fitter:
@@ -139,6 +153,16 @@ class Fitter:
         self.last = res
         return res.fit_model, d.simulate(res.fit_model)
 
+    def fold_fit(self, model, on: frozenset, train):
+        """`fit` on a fold's training samples, continued once from where it stopped when
+        it did not converge (the same effort for the current model and every option: a
+        fold fit cut at its step limit would otherwise leave improvement that the next
+        fit started from it counts as its effect's gain)."""
+        fitted, pred = self.fit(model, on, train)
+        if not _converged(self.last):
+            fitted, pred = self.fit(fitted, on, train)
+        return fitted, pred
+
     def cross_validate_nested(self, option: Option, current: Option, folds,
                               new: dict) -> None:
         """Refit `option` (the current model plus the effects `new`: slot index -> effect
@@ -156,7 +180,8 @@ class Fitter:
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            fitted, pred = self.fit(model, option.on, train)
+            fitted, pred = self.fold_fit(model, option.on, train)
+            option._note(f"fold {k} fit", self.last)
             option.fold_models.append(fitted)
             option.fold_preds.append(pred)
 
@@ -166,8 +191,9 @@ class Fitter:
         solver's tolerance test), leaving the held-out blocks predicted by a model that
         was fitted on them."""
         if not option.fold_preds:
-            for train, _ in folds:
-                fitted, pred = self.fit(option.model, option.on, train)
+            for k, (train, _) in enumerate(folds):
+                fitted, pred = self.fold_fit(option.model, option.on, train)
+                option._note(f"fold {k} fit", self.last)
                 option.fold_models.append(fitted)
                 option.fold_preds.append(pred)
 
@@ -262,6 +288,7 @@ def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
     log(f"  refitting with {o.name} ...")
     o.fitted, o.pred = fitter.fit(o.model, o.on)
     o.result = fitter.last
+    o._note("fit on every sample", o.result)
     o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
     o.physical = "" if o.base else "; ".join(
         p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i])))
@@ -300,6 +327,10 @@ def _cross_validate(fitter, current, options, folds, rules, log):
             fitter.cross_validate(o, folds)
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
-            + (f" (not physical: {o.physical})" if o.physical else ""))
-    good = [o for o in options if o.z >= rules.z and not o.physical]
+            + (f" (not physical: {o.physical})" if o.physical else "")
+            + (f" (not converged: {o.unconverged})" if o.unconverged else ""))
+    # A fit that did not converge is no evidence: its gain (or the current model's loss)
+    # may be a difference of effort, not of models.
+    good = [o for o in options if o.z >= rules.z and not o.physical and not o.unconverged
+            and not current.unconverged]
     return max(good, key=lambda o: o.z) if good else None

@@ -146,3 +146,15 @@ def test_diagnose_finds_a_mass_and_adds_nothing_to_its_clean_twin():
     clean = diagnose(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
                         base_models=())
     assert clean.final.added == []
+
+
+def test_a_fit_cut_at_its_step_limit_is_no_evidence():
+    """The quick case with every fit cut at three steps (continued once on each fold): the
+    mass is not added, and its evidence says why."""
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    d = diagnose(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
+                 rules=rules, max_steps=3)
+    assert d.final.added == []
+    assert "not converged" in d.candidates[0].evidence
+    assert d.trials[0]["converged"] is False
