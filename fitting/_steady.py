@@ -171,6 +171,10 @@ def fit_steady_curve(curve: SteadyCurve, *, deltas=DELTAS, n_vs: int = 24
     if fc <= 0:  # the whole level in the exponential: no sliding plateau in the data
         fc, dfs = fc + dfs, 0.0
     fc = max(fc, 1e-3 * max(float(force.max()), 1e-12))
+    # Likewise a viscous term of at least 0.1 % of the largest force at the largest speed:
+    # 0 is outside the log scale sigma2 is fitted on, and a start of 1e-17 would take the
+    # fit dozens of steps to leave.
+    sigma2 = max(sigma2, 1e-3 * max(float(force.max()), 1e-12) / speed[-1])
     stribeck = jaxfric.Stribeck(Fs=fc + dfs, Fc=fc, Vs=vs, delta=float(delta))
     return stribeck, float(sigma2), float(res / np.sqrt(np.sum(w**2)))
 

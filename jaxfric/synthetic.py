@@ -220,7 +220,12 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
         model = truth(truth_name)
         base = np.asarray(simulate(model, t_fine, x_fine, v))
         static = np.asarray(model.stribeck.magnitude(v))  # |s(v)|, Fs at rest (s(0) is 0)
-    level = float(np.median(np.abs(base[np.abs(v) > 5e-3])))
+    # The sliding level the hidden effects scale with: above 5 mm/s, or on the fastest
+    # tenth of the samples when the motion never reaches it (a slow sine sweep).
+    fast = np.abs(v) > 5e-3
+    if not fast.any():
+        fast = np.abs(v) >= np.quantile(np.abs(v), 0.9)
+    level = float(np.median(np.abs(base[fast])))
     k = ROTARY_SCALE if rotary else 1.0
     force = base + sum((_load_force(t_fine, v) if h in HIDDEN_LOAD else
                         hidden_force(h, t_fine, k * x_fine, k * v, k * a, base, level, static)

@@ -32,3 +32,11 @@ def test_measurement_takes_a_motion_family_and_a_jittered_clock():
     again = synthetic.measurement("gms_power", (), dt=1e-2, jitter=0.0)
     for a, b in zip(plain, again):
         np.testing.assert_array_equal(a, b)  # jitter 0 is the uniform clock, unchanged
+
+
+def test_hidden_effects_on_a_motion_that_never_slides_fast_are_finite():
+    """A slow sine sweep never exceeds 5 mm/s: the hidden effects scale with the level of
+    its fastest samples instead (was NaN: the median of no samples)."""
+    *_, F = synthetic.measurement("stiction", ("cogging",), noise=0.03, dt=0.01,
+                                    motion="sine_sweep", duration=30, seed=0)
+    assert np.all(np.isfinite(F))

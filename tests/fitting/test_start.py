@@ -177,3 +177,17 @@ def test_fit_from_the_start_reaches_the_truth_steady_state_curve(kind, make_trut
     fs = float(model.stribeck.Fs)
     err = np.max(np.abs(_steady(res.model, speed) - _steady(model, speed))) / fs
     assert err < 0.005, f"{kind}: fitted steady-state curve off by {err:.2%} of Fs"
+
+
+@pytest.mark.parametrize("kind", ["gms", "two-state", "lugre"])
+def test_start_viscous_term_is_inside_its_log_scale(kind):
+    """On a slow sine sweep whose sliding bins show no viscous slope, the steady curve's
+    least squares give sigma2 = 0, outside the log scale it is fitted on (a GMS-20 fit
+    from it raised): the start keeps 0.1 % of the largest force at the largest speed."""
+    from jaxfric import synthetic
+
+    t, x, F = synthetic.measurement("stiction", (), noise=0.03, dt=0.01, motion="sine_sweep",
+                                    duration=30, seed=0)
+    start = initial_model(kind, t, x, F)
+    assert float(start.sigma2) > 0.0
+    assert float(start.sigma2) * float(np.max(np.abs(np.gradient(x, t)))) < 0.05 * np.max(F)
