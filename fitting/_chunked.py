@@ -204,7 +204,10 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
         return f"the cost fell by less than ftol = {tol.ftol:g} (relative) over {window}", True
     resid = np.asarray(out.resid)
     moved = float(np.linalg.norm(np.asarray(out.jac) @ (np.asarray(out.y) - np.asarray(ref_y))))
-    if moved <= tol.xtol * float(np.linalg.norm(resid)):
+    # (A window in which the fit has not moved says nothing: with max_steps=1 the only
+    # step evaluates the start.)
+    if moved <= tol.xtol * float(np.linalg.norm(resid)) and not np.array_equal(
+            np.asarray(out.y), np.asarray(ref_y)):
         return (f"{window} changed the prediction by less than xtol = {tol.xtol:g} of the "
                 "residual", True)
     if _max_cosine(out.jac, resid) <= tol.gtol:

@@ -54,6 +54,15 @@ def test_zero_steps_is_not_success(problem):
     assert int(res.num_steps) == 0 and not bool(res.converged)
 
 
+def test_one_step_from_a_poor_start_is_not_success(problem):
+    """With max_steps=1 the only step evaluates the start: the fit has not moved, which
+    says nothing about convergence."""
+    t, x, F, start = problem
+    res = fitting.fit(start, t, x, F, max_steps=1)
+    assert int(res.num_steps) == 1 and not bool(res.converged), res.stopped
+    assert "max_steps = 1" in res.stopped
+
+
 def test_a_refit_from_the_optimum_is_converged_at_once(problem):
     """Issue 35: a refit started from a converged fit's own parameters stops at its first
     evaluation (one step, which only evaluates the start) and does not move."""
