@@ -96,16 +96,40 @@ def test_several_runs_input_is_checked():
         fitting.diagnose(jaxfric.paper.tustin(), bad)
 
 
+def _ripple_of(model) -> tuple[float, float]:
+    """``(period, amplitude)`` of the strongest position ripple among `model`'s effects: a
+    cogging, or the strongest harmonic of a ripple (its period over the harmonic's
+    number); ``(nan, 0)`` without one."""
+    best = (float("nan"), 0.0)
+    for e in getattr(model, "effects", ()):
+        if e.name == "cogging":
+            amps = [float(np.hypot(e.cog_sin, e.cog_cos))]
+            periods = [float(e.period)]
+        elif e.name == "ripple":
+            amps = list(np.hypot(np.asarray(e.rip_sin), np.asarray(e.rip_cos)))
+            periods = [float(e.period) / (k + 1) for k in range(len(amps))]
+        else:
+            continue
+        k = int(np.argmax(amps))
+        if amps[k] > best[1]:
+            best = (periods[k], float(amps[k]))
+    return best
+
+
 @pytest.mark.slow
 def test_three_runs_find_the_shared_ripple_and_not_one_runs_disturbance():
-    """The three-speeds example (examples/three_speeds.py), shortened: the cogging of the
-    joint is in every run and is added; the angle load of the fast run alone is not."""
+    """The three-speeds example (examples/three_speeds.py), shortened: the position ripple
+    of the joint (1 N m, period 0.3 rad) is in every run and is added (as a cogging, or as a
+    ripple whose strongest harmonic has that period: the same force); the angle load of the
+    fast run alone is not, and every run's held-out error falls."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
     from three_speeds import diagnosis_of, runs
 
     d = diagnosis_of(runs(dt=1e-2, cycles=2))
     assert d.folds == "runs"
-    assert "cogging" in d.final.added
     assert "angle_load" not in d.final.added
+    assert {"cogging", "ripple"} & set(d.final.added)
+    period, amplitude = _ripple_of(d.model)
+    assert period == pytest.approx(0.3, rel=0.02) and amplitude == pytest.approx(1.0, rel=0.1)
     for row in d.runs:  # every run's held-out error falls with the ripple
         assert row["rmse_holdout"][-1] < row["rmse_holdout"][0]
