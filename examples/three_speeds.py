@@ -95,7 +95,8 @@ def main() -> None:
                                "diagnosis": {"folds": d.folds, "added": d.final.added,
                                              "runs": d.runs,
                                              "candidates": [c.to_json()
-                                                            for c in d.candidates]}},
+                                                            for c in d.candidates],
+                                             "trials": d.trials}},
                               indent=2) + "\n")
     print(f"written to {OUT.relative_to(ROOT)}")
 
