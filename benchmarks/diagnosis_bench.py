@@ -283,11 +283,15 @@ def summarise_corner(rows: list[dict]) -> dict:
             p["both_found"] += found(r)
     truths = list(dict.fromkeys(r["truth"] for r in rows))
     return {"dt_s": r0["dt"], "noise_N": r0["noise"], "start": r0.get("start", "two-state"),
-            "runs": r0.get("runs", 1),
+            "runs_diagnosed": r0.get("runs", 1),
             **({"options": r0["options"]} if r0.get("options") else {}),
             "motion": motion(r0), "truths": truths, "files": len(rows), **counts(rows),
             "by_truth": {t: counts([r for r in rows if r["truth"] == t]) for t in truths},
-            "by_effect": by_effect, "by_pair": by_pair}
+            "by_effect": by_effect, "by_pair": by_pair,
+            "judged_runs": [{"truth": r["truth"], "hidden": r["hidden"], "added": r["added"],
+                             "rmse_before": r["judged_run_rmse_before"],
+                             "rmse_after": r["judged_run_rmse_after"]}
+                            for r in rows if "judged_run_rmse_before" in r]}
 
 
 def summary(rows: list[dict], runs: list[dict], previous: dict | None = None) -> dict:
@@ -314,8 +318,8 @@ def summary(rows: list[dict], runs: list[dict], previous: dict | None = None) ->
 
 
 def _entry_key(c: dict) -> tuple:
-    return (c["dt_s"], c["noise_N"], c["start"], json.dumps(c.get("options", {}),
-                                                            sort_keys=True), c.get("runs", 1))
+    return (c["dt_s"], c["noise_N"], c["start"],
+            json.dumps(c.get("options", {}), sort_keys=True), c.get("runs_diagnosed", 1))
 
 
 def _git_date(path: Path) -> str | None:

@@ -2,6 +2,10 @@
 blocked cross-validation support, with one rule (the decision is `fitting._select`, its
 thresholds `fitting.DiagnosisRules`; docs/diagnosis.md explains it).
 
+Several runs (a list of `fitting.Dataset`) are one `fitting._candidates.Data`, the runs
+concatenated; every fit fits them all at once (`fitting._select.Fitter.fit`), and the
+folds are the runs (`fitting._select.run_folds`, leave one run out).
+
 What is searched (`effect_names`): every effect of `jaxfric.effects` with a linear
 parameter not already in the model (those of an angle only on rotary data, those of a load
 only with a load signal), and a richer base model (a GMS with 20 elements).
