@@ -16,7 +16,7 @@ import jaxfric
 from jaxfric import effects as fx
 from jaxfric._compile import jit
 
-from ._per_run import plain_effect, run_model
+from ._per_run import mean_effect, plain_effect, run_model
 
 
 @dataclasses.dataclass
@@ -184,9 +184,9 @@ def physical(effect) -> str:
 
 
 def _code(effect) -> str:
-    """The one-liner that adds `effect` with its screened values (a per-run parameter's
-    values over the runs in a tuple)."""
-    effect = plain_effect(effect)
+    """The one-liner that adds `effect` with its screened values (a per-run parameter at
+    its mean over the runs)."""
+    effect = mean_effect(effect)
     def value(v):
         a = np.asarray(v, float)
         return f"{float(a):.4g}" if a.ndim == 0 else "(" + ", ".join(f"{u:.4g}" for u in a) + ")"

@@ -94,6 +94,15 @@ def plain_effect(e):
     return e.effect if isinstance(e, _PerRunEffect) else e
 
 
+def mean_effect(e):
+    """A `_PerRunEffect` with its per-run values at their mean (the effect for a run not
+    fitted); any other effect unchanged."""
+    if not isinstance(e, _PerRunEffect):
+        return e
+    return eqx.tree_at(lambda x: [getattr(x, f) for f in e.fields], e.effect,
+                       [jnp.mean(getattr(e.effect, f)) for f in e.fields])
+
+
 def run_model(model, k: int | None, among=None):
     """The plain model of run `k` of a model fitted with per-run parameters (``None``: the
     mean over the runs `among`, default all, the model for a run not fitted); any other
