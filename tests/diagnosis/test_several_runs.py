@@ -12,6 +12,7 @@ import pytest
 import fitting
 import jaxfric
 from fitting import _select as S
+from fitting._candidates import _code
 from fitting._diagnose import _records
 from jaxfric import effects as fx
 
@@ -79,6 +80,8 @@ def test_fit_of_runs_has_an_offset_per_run_and_predicts_a_left_out_run_at_their_
     got = np.asarray(fitted.effects[0].effect.offset)
     assert got == pytest.approx(offsets, abs=1e-6)
     assert np.max(np.abs(pred - data.F)) < 1e-6
+    # the one-liner a report gives adds a plain offset: the mean over the runs
+    assert _code(fitted.effects[0]).endswith("Offset(offset=0.4)")
     train = np.ones(data.t.size)
     train[data.slices()[2]] = 0.0  # run 3 left out
     fitted, pred = fitter.fit(start, frozenset({0}), weights=train)
