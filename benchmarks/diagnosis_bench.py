@@ -38,6 +38,13 @@ baseline's held-out error by less than `ABSORBED` over the clean twin is counted
 *absorbed* by the base model (little is left to find); the shares are also given without
 those files.
 
+**Generalisation.** Each file is also judged on a run it was not fitted on: the same truth
+and hidden effects on another motion (`measurement` with another seed, `OTHER_RUN`); its
+RMSE by the baseline and by the diagnosed model (``judged_run_rmse_before/after``; the
+summary counts the files where the diagnosis made it worse, ``judged_run_worse``). With
+``--runs 2`` the diagnosis gets the file and one other run together (leave one run out,
+`fitting.diagnose` with several runs) and is judged on a third.
+
 A run writes every file's row (what was added, the rankings, every refit tried, the
 diagnosis summary) to ``--out`` (default: in the system's temporary folder, not the
 repository), and a summary of counts per corner (`summary`) to ``--summary`` (default
@@ -111,16 +118,55 @@ def _measure(case: dict, hidden) -> tuple:
                        **case.get("options", {}))
 
 
+#: The seed of a file's other runs is its own plus this times the run's number: the same
+#: truth and hidden effects on another motion (and other noise).
+OTHER_RUN = 1000
+
+
+def _other_run(case: dict, k: int):
+    """Run `k` (1, 2, ...) of the file after its own: `measurement` of the same truth and
+    hidden effects with another seed, so another motion."""
+    import fitting
+
+    other = {**case, "seed": case["seed"] + OTHER_RUN * k}
+    t, x, F = _measure(other, case["hidden"])
+    v, a = fitting.estimate_derivatives(t, x)  # as the diagnosis derives them
+    return fitting.Dataset(t=t, x=x, F=F, v=v, a=a)
+
+
+def _judged(model, d) -> float:
+    """RMSE (N) of `model`'s prediction of run `d`, not fitted on it."""
+    import jaxfric
+
+    pred = np.asarray(jaxfric.simulate(model, d.t, d.x, d.v, a=d.a))
+    return float(np.sqrt(np.mean((pred - d.F) ** 2)))
+
+
 def run_case(case: dict) -> dict:
+    """Diagnose the file (with ``case["runs"] == 2``: the file and its first other run
+    together, leave one run out), then judge the baseline and the diagnosed model on a run
+    they were not fitted on (`_other_run`): generalisation."""
     import fitting
 
     t0 = time.perf_counter()
     t, x, F = _measure(case, case["hidden"])
     kind = case.get("start", "two-state")
     start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
-    d = fitting.diagnose(start, t, x, F, model_name=kind)
+    n_runs = case.get("runs", 1)
+    if n_runs > 1:
+        v, a = fitting.estimate_derivatives(t, x)
+        runs = [fitting.Dataset(t=t, x=x, F=F, v=v, a=a)]
+        runs += [_other_run(case, k) for k in range(1, n_runs)]
+        d = fitting.diagnose(start, runs, model_name=kind)
+    else:
+        d = fitting.diagnose(start, t, x, F, model_name=kind)
+    judge = _other_run(case, n_runs)
+    base = fitting.run_model(d.baseline.fit.fit_model, None)
     judged = [c for c in d.candidates if np.isfinite(c.score)]
     return {**case, "samples": int(t.size), "added": list(d.final.added),
+            "folds": d.folds,
+            "judged_run_rmse_before": _judged(base, judge),
+            "judged_run_rmse_after": _judged(d.model, judge),
             "rmse_holdout_clean": clean_holdout(case, start),
             "first": d.final.added[0] if d.final.added else None,
             "top_score": judged[0].name if judged else None, "finding": d.finding,
@@ -181,7 +227,7 @@ def motion(row: dict) -> str:
 
 def corner_key(row: dict) -> tuple:
     return (row["dt"], row["noise"], row.get("start", "two-state"),
-            json.dumps(row.get("options", {}), sort_keys=True))
+            json.dumps(row.get("options", {}), sort_keys=True), row.get("runs", 1))
 
 
 def counts(rows: list[dict]) -> dict:
@@ -199,6 +245,8 @@ def counts(rows: list[dict]) -> dict:
         if found(r) and excess > 0:
             removed.append((r["rmse_holdout_before"] - r["rmse_holdout_after"]) / excess)
 
+    judged = [r for r in rows if r.get("judged_run_rmse_before") is not None]
+
     def share(sel):
         return [sum(found(r) for r in sel), len(sel)]
 
@@ -207,6 +255,12 @@ def counts(rows: list[dict]) -> dict:
             "clean_files": len(clean), "added_on_clean": sum(len(r["added"]) for r in clean),
             "not_hidden_added": sum(len(set(r["added"]) - set(r["hidden"])) for r in rows),
             "found_half_excess_removed": [sum(s >= 0.5 for s in removed), len(removed)],
+            # generalisation: the run not used, predicted worse after the diagnosis
+            "judged_run_worse": [sum(r["judged_run_rmse_after"] > r["judged_run_rmse_before"]
+                                     for r in judged), len(judged)],
+            "judged_run_worse_with_added": [
+                sum(r["judged_run_rmse_after"] > r["judged_run_rmse_before"]
+                    for r in judged if r["added"]), sum(bool(r["added"]) for r in judged)],
             "median_excess_removed": float(np.median(removed)) if removed else None}
 
 
@@ -229,10 +283,15 @@ def summarise_corner(rows: list[dict]) -> dict:
             p["both_found"] += found(r)
     truths = list(dict.fromkeys(r["truth"] for r in rows))
     return {"dt_s": r0["dt"], "noise_N": r0["noise"], "start": r0.get("start", "two-state"),
+            "runs_diagnosed": r0.get("runs", 1),
             **({"options": r0["options"]} if r0.get("options") else {}),
             "motion": motion(r0), "truths": truths, "files": len(rows), **counts(rows),
             "by_truth": {t: counts([r for r in rows if r["truth"] == t]) for t in truths},
-            "by_effect": by_effect, "by_pair": by_pair}
+            "by_effect": by_effect, "by_pair": by_pair,
+            "judged_runs": [{"truth": r["truth"], "hidden": r["hidden"], "added": r["added"],
+                             "rmse_before": r["judged_run_rmse_before"],
+                             "rmse_after": r["judged_run_rmse_after"]}
+                            for r in rows if "judged_run_rmse_before" in r]}
 
 
 def summary(rows: list[dict], runs: list[dict], previous: dict | None = None) -> dict:
@@ -259,8 +318,8 @@ def summary(rows: list[dict], runs: list[dict], previous: dict | None = None) ->
 
 
 def _entry_key(c: dict) -> tuple:
-    return (c["dt_s"], c["noise_N"], c["start"], json.dumps(c.get("options", {}),
-                                                            sort_keys=True))
+    return (c["dt_s"], c["noise_N"], c["start"],
+            json.dumps(c.get("options", {}), sort_keys=True), c.get("runs_diagnosed", 1))
 
 
 def _git_date(path: Path) -> str | None:
@@ -306,7 +365,7 @@ def write_summary(path: Path, rows: list[dict], runs: list[dict], note: str | No
 
 def print_table(rows: list[dict]) -> None:
     print(f"\n{'truth':<16} {'motion':<15} {'noise':>5} {'dt':>6}  {'hidden':<34} "
-          f"{'added (in order)':<40} held-out RMSE before -> after, N")
+          f"{'added (in order)':<40} held-out RMSE before -> after, N; run not used")
     for r in rows:
         ok = "ok" if (found(r) if r["hidden"] else not r["added"]) else "MISS"
         if absorbed(r):
@@ -314,7 +373,9 @@ def print_table(rows: list[dict]) -> None:
         print(f"{r['truth']:<16} {motion(r):<15} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  "
               f"{' + '.join(r['hidden']) or '(clean)':<34} "
               f"{' + '.join(r['added']) or '-':<40} {r['rmse_holdout_before']:>10.4f} -> "
-              f"{r['rmse_holdout_after']:.4f}  {ok}")
+              f"{r['rmse_holdout_after']:.4f}  {ok}"
+              + (f"  judged run {r['judged_run_rmse_before']:.4f} -> "
+                 f"{r['judged_run_rmse_after']:.4f}" if "judged_run_rmse_before" in r else ""))
 
 
 def print_summary(out: dict) -> None:
@@ -323,8 +384,9 @@ def print_summary(out: dict) -> None:
               f"{c['start']}, motion {c.get('motion', 'diagnosis')} "
               f"({', '.join(c['truths'])}; {c['files']} files):")
         for k in ("singles", "singles_not_absorbed", "pairs", "pairs_not_absorbed",
-                  "found_half_excess_removed"):
-            print(f"  {k:<28} {c[k][0]} of {c[k][1]}")
+                  "found_half_excess_removed", "judged_run_worse"):
+            if k in c:
+                print(f"  {k:<28} {c[k][0]} of {c[k][1]}")
         print(f"  {'added_on_clean':<28} {c['added_on_clean']} ({c['clean_files']} files)")
         for h, e in c["by_effect"].items():
             print(f"  {h:<22} named first {e['named_first']} of {e['files']}"
@@ -359,6 +421,10 @@ def _parser() -> argparse.ArgumentParser:
                     help="seconds of a trajectories motion (default: %(default)s)")
     ap.add_argument("--jitter", type=float, default=0.0,
                     help="clock jitter, fraction of the interval (default: %(default)s)")
+    ap.add_argument("--runs", type=int, default=1, choices=(1, 2),
+                    help="runs diagnosed together: 1 (the file; its time blocks are the "
+                    "folds) or 2 (the file and a run of another motion, leave one run out); "
+                    "either is judged on one more run (default: %(default)s)")
     ap.add_argument("--note", help="a note saved in the summary (e.g. what subset ran)")
     ap.add_argument("--summarise", nargs="+", metavar="ROWS", type=Path,
                     help="run nothing: summarise the rows of earlier runs into --summary")
@@ -389,6 +455,8 @@ def main(argv=None) -> int:
             options["jitter"] = args.jitter
         todo += cases(args.quick, args.truths.split(",") if args.truths else None,
                       floats(args.rates), floats(args.noises), args.start, options or None)
+    if args.runs > 1:
+        todo = [{**c, "runs": args.runs} for c in todo]
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if set(c["hidden"]) <= keep]

@@ -16,10 +16,14 @@ import jaxfric
 from jaxfric import effects as fx
 from jaxfric._compile import jit
 
+from ._per_run import mean_effect, plain_effect, run_model
+
 
 @dataclasses.dataclass
 class Data:
-    """The record every fit uses (SI arrays; `a` and `load` may be None)."""
+    """The record every fit uses (SI arrays; `a` and `load` may be None): one run, or
+    several runs concatenated in order, run ``i`` being ``lengths[i]`` samples (None: one
+    run). Each run is simulated from its own zero state at its own first sample."""
 
     t: np.ndarray
     x: np.ndarray
@@ -27,13 +31,58 @@ class Data:
     F: np.ndarray
     a: np.ndarray | None = None
     load: np.ndarray | None = None
+    lengths: tuple[int, ...] | None = None
 
-    def simulate(self, model) -> np.ndarray:
-        return np.asarray(jaxfric.simulate(model, self.t, self.x, self.v, load=self.load,
-                                           a=self.a))
+    @property
+    def n_runs(self) -> int:
+        return 1 if self.lengths is None else len(self.lengths)
+
+    def slices(self) -> list[slice]:
+        """The samples of each run."""
+        if self.lengths is None:
+            return [slice(0, self.t.size)]
+        ends = np.cumsum(self.lengths)
+        return [slice(int(e - n), int(e)) for n, e in zip(self.lengths, ends)]
+
+    def runs(self) -> list["Data"]:
+        """Each run on its own."""
+        if self.lengths is None:
+            return [self]
+        return [Data(*(None if arr is None else arr[sl] for arr in
+                       (self.t, self.x, self.v, self.F, self.a, self.load)))
+                for sl in self.slices()]
+
+    def longest(self) -> "Data":
+        return max(self.runs(), key=lambda d: d.t.size)
+
+    def every(self, k: int) -> tuple["Data", np.ndarray]:
+        """One sample in `k` of each run, and their indices into this record's samples."""
+        idx = np.concatenate([np.arange(sl.start, sl.stop, k) for sl in self.slices()])
+        lengths = None if self.lengths is None else tuple(
+            len(range(sl.start, sl.stop, k)) for sl in self.slices())
+        return Data(*(None if arr is None else arr[idx] for arr in
+                      (self.t, self.x, self.v, self.F, self.a, self.load)), lengths), idx
+
+    def simulate(self, model, fitted=None) -> np.ndarray:
+        """`model`'s force on every run: run ``i`` by `fitting.run_model` ``(model, i)``
+        when `fitted` (run indices; default all) holds ``i``, else with its per-run
+        parameters at their mean over the `fitted` runs (a run not fitted has no value of
+        its own)."""
+        fitted = range(self.n_runs) if fitted is None else list(fitted)
+        out = []
+        for i, d in enumerate(self.runs()):
+            m = run_model(model, i) if i in fitted else run_model(model, None, among=fitted)
+            out.append(np.asarray(jaxfric.simulate(m, d.t, d.x, d.v, load=d.load, a=d.a)))
+        return np.concatenate(out)
+
+    def grid(self, name: str) -> list:
+        """The starting grid of effect `name` (`AbstractEffect.grid`), on the longest run."""
+        d = self.longest()
+        return fx.EFFECTS[name].grid(d.t, d.x, d.v, d.F)
 
 
 def _linear(effect) -> list[str]:
+    effect = plain_effect(effect)
     return [f.name for f in dataclasses.fields(effect) if f.metadata.get("linear")]
 
 
@@ -59,7 +108,10 @@ def _term(effect, s):
 
 
 def _columns(effect, s) -> np.ndarray:
-    """The term's derivative w.r.t. each entry of its linear parameters, (n, q)."""
+    """The term's derivative w.r.t. each entry of its linear parameters, (n, q); `s`: the
+    signals, or a list of them (one per run, rows concatenated)."""
+    if isinstance(s, list):
+        return np.concatenate([_columns(effect, one) for one in s])
     zero, cols = _off(effect), []
     for k in _linear(effect):
         z = np.zeros(np.shape(getattr(effect, k)))
@@ -70,7 +122,11 @@ def _columns(effect, s) -> np.ndarray:
     return np.stack(cols, axis=1)
 
 
-def _signals(data: Data, base_model) -> fx.Signals:
+def _signals(data: Data, base_model):
+    """The signals of `base_model` on `data` (`jaxfric.effects.Signals`; a list of them,
+    one per run, for several runs)."""
+    if data.n_runs > 1:
+        return [_signals(d, base_model) for d in data.runs()]
     base = np.asarray(jaxfric.simulate(base_model, data.t, data.x, data.v, load=data.load,
                                        a=data.a))
     dt = np.r_[0.0, np.diff(data.t)]
@@ -95,7 +151,7 @@ def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
     keep = slice(None) if weights is None else np.asarray(weights) > 0
     resid = resid[keep]
     best, best_gain = None, -np.inf
-    for e in fx.EFFECTS[name].grid(data.t, data.x, data.v, data.F):
+    for e in data.grid(name):
         X = _columns(e, s)[keep]
         w, *_ = np.linalg.lstsq(X, resid, rcond=None)
         gain = float(resid @ resid - np.sum((resid - X @ w) ** 2))
@@ -114,7 +170,8 @@ def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
 
 def physical(effect) -> str:
     """Why `effect`'s fitted values are not physical ("" when they are), from each
-    field's ``physical`` range."""
+    field's ``physical`` range (of every run's value, for a per-run parameter)."""
+    effect = plain_effect(effect)
     for f in dataclasses.fields(effect):
         rng = f.metadata.get("physical")
         if rng is None:
@@ -127,7 +184,9 @@ def physical(effect) -> str:
 
 
 def _code(effect) -> str:
-    """The one-liner that adds `effect` with its screened values."""
+    """The one-liner that adds `effect` with its screened values (a per-run parameter at
+    its mean over the runs)."""
+    effect = mean_effect(effect)
     def value(v):
         a = np.asarray(v, float)
         return f"{float(a):.4g}" if a.ndim == 0 else "(" + ", ".join(f"{u:.4g}" for u in a) + ")"

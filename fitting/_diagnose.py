@@ -2,6 +2,10 @@
 blocked cross-validation support, with one rule (the decision is `fitting._select`, its
 thresholds `fitting.DiagnosisRules`; docs/diagnosis.md explains it).
 
+Several runs (a list of `fitting.Dataset`) are one `fitting._candidates.Data`, the runs
+concatenated; every fit fits them all at once (`fitting._select.Fitter.fit`), and the
+folds are the runs (`fitting._select.run_folds`, leave one run out).
+
 What is searched (`effect_names`): every effect of `jaxfric.effects` with a linear
 parameter not already in the model (those of an angle only on rotary data, those of a load
 only with a load signal), and a richer base model (a GMS with 20 elements).
@@ -26,12 +30,21 @@ from ._candidates import _code, Candidate
 from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
 from ._diagnosis import Diagnosis, Step
-from ._fit import fit
 from ._params import leaf_names, to_fit_representation
+from ._per_run import per_run_values, run_model
 from ._plausibility import plausibility
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
-from ._select import Data, Fitter, held_out_sse, Option, select, time_block_folds
+from ._select import (
+    _blocks,
+    Data,
+    Fitter,
+    held_out_sse,
+    Option,
+    run_folds,
+    select,
+    time_block_folds,
+)
 from ._start import initial_model
 
 
@@ -93,11 +106,6 @@ def noise_level(F) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
 
 
-def _subsample(full: Data, k: int) -> Data:
-    return Data(*(None if arr is None else arr[::k] for arr in
-                  (full.t, full.x, full.v, full.F, full.a, full.load)))
-
-
 def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
     """The largest of ``k, k // 2, ..., 1`` whose search copy (one sample in k) is
     faithful: the start `model` simulated on the copy differs from it simulated on every
@@ -112,7 +120,8 @@ def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
     ref = full.simulate(model)
     words = ""
     while k > 1:
-        err = float(np.sqrt(np.mean((_subsample(full, k).simulate(model) - ref[::k]) ** 2)))
+        copy, idx = full.every(k)
+        err = float(np.sqrt(np.mean((copy.simulate(model) - ref[idx]) ** 2)))
         if err <= sigma:
             return k, (f"{words}its simulation differs from the full-rate one by {err:.2g} N "
                        f"RMS, within the force's noise, {sigma:.2g} N")
@@ -122,6 +131,51 @@ def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
         k //= 2
     return 1, (f"not subsampled: {words.rstrip('; ')}, more than the force's noise "
                f"({sigma:.2g} N)")
+
+def _records(runs: Sequence[Dataset], derivatives, velocity_window) -> tuple[Data, str]:
+    """Several runs (`Dataset`s; a known force subtracted from `F`) as one `Data`, runs
+    concatenated in order, each with its own derivative estimates."""
+    parts, hows = [], []
+    for i, d in enumerate(runs):
+        if d.weights is not None:
+            raise ValueError(f"run {i}: diagnose uses every sample (weights not supported)")
+        if (d.load is None) != (runs[0].load is None):
+            raise ValueError(f"run {i}: every run needs a load signal, or none")
+        F = np.asarray(d.F, np.float64) - (0.0 if d.known is None else np.asarray(d.known))
+        try:
+            one, how = _record(d.t, d.x, F, d.v, d.a, d.load, derivatives, velocity_window)
+        except ValueError as e:
+            raise ValueError(f"run {i}: {e}") from None
+        parts.append(one)
+        hows.append(how)
+    if len(parts) == 1:
+        return parts[0], hows[0]
+    cat = [None if getattr(parts[0], f) is None else
+           np.concatenate([getattr(p, f) for p in parts])
+           for f in ("t", "x", "v", "F", "a", "load")]
+    return Data(*cat, tuple(p.t.size for p in parts)), hows[0]
+
+
+def _masks(data: Data) -> dict:
+    """The regimes (`fitting.regimes`) of every sample; for several runs each run's, with
+    the sliding speed bands common to all (the terciles of their sliding speeds)."""
+    if data.n_runs == 1:
+        return regimes(data.t, data.x, data.v)
+    runs = data.runs()
+    own = [regimes(r.t, r.x, r.v) for r in runs]
+    speeds = []
+    for r, o in zip(runs, own):
+        slide = np.zeros(r.t.size, bool)
+        for name, mask in o.items():
+            if name.startswith("sliding"):
+                slide |= mask
+        speeds.append(np.abs(r.v[slide]))
+    speeds = np.concatenate(speeds)
+    bands = list(np.quantile(speeds, [1 / 3, 2 / 3])) if speeds.size else None
+    own = [regimes(r.t, r.x, r.v, speed_bands=bands) for r in runs]
+    names = list(dict.fromkeys(n for o in own for n in o))
+    return {n: np.concatenate([o.get(n, np.zeros(r.t.size, bool)) for o, r in zip(own, runs)])
+            for n in names}
 
 
 def _prune(model, on):
@@ -139,16 +193,45 @@ def _final_fit(fitter: Fitter, model, on, copy: Data, full: Data, log, what: str
     if full.t.size != copy.t.size:
         log(f"refitting {what} on all {full.t.size} samples ...")
     f = Fitter(full, fitter.fixed, fitter.max_steps)
-    fit_model, props = f.props(pruned, frozenset(range(len(getattr(pruned, "effects", ())))))
-    return fit(fit_model, full.t, full.x, full.F, full.v, props=props, max_steps=f.max_steps,
-               load=full.load, a=full.a)
+    f.fit(pruned, frozenset(range(len(getattr(pruned, "effects", ())))))
+    return f.last
+
+
+def _prediction(res) -> np.ndarray:
+    """A `FitResult`'s prediction on every sample (runs concatenated)."""
+    p = res.prediction
+    return np.concatenate([np.asarray(q) for q in p]) if isinstance(p, tuple) else np.asarray(p)
 
 
 def _step(res, added, full: Data, holdout_rmse: float, masks) -> Step:
-    resid = np.asarray(res.prediction) - full.F
+    resid = _prediction(res) - full.F
     return Step(added=list(added), fit=res, rmse=float(np.sqrt(np.mean(resid**2))),
                 rmse_holdout=holdout_rmse, regimes=regime_errors(-resid, masks),
                 rel_error=float(np.sqrt(np.mean(resid**2) / np.mean(full.F**2))))
+
+
+def _held_out(o: Option, folds, data: Data) -> list[float]:
+    """The RMSE of `o`'s held-out predictions on each run of `data` (every sample is held
+    out once; NaN when `o` was not cross-validated)."""
+    if not o.fold_preds:
+        return [float("nan")] * data.n_runs
+    pred = np.full(data.t.size, np.nan)
+    for k, idx in _blocks(folds):
+        pred[idx] = o.fold_preds[k][idx]
+    return [float(np.sqrt(np.nanmean((pred - data.F)[sl] ** 2))) for sl in data.slices()]
+
+
+def _run_rows(names, full: Data, copy: Data, folds, options, fits) -> list[dict]:
+    """Per run: its samples, the held-out RMSE of the baseline and after each addition
+    (`rmse_holdout`), and the in-sample RMSE of the baseline and final fits (`rmse`)."""
+    held = [_held_out(o, folds, copy) for o in options]
+    ins = [[float(np.sqrt(np.mean((_prediction(r) - full.F)[sl] ** 2))) for sl in full.slices()]
+           for r in fits]
+    values = per_run_values(fits[-1].fit_model)
+    return [{"run": name, "samples": int(sl.stop - sl.start),
+             "rmse_holdout": [h[i] for h in held], "rmse": [r[i] for r in ins],
+             **({"params": values[i]} if values else {})}
+            for i, (name, sl) in enumerate(zip(names, full.slices()))]
 
 
 def _candidate(o: Option, current: Option, added: bool) -> Candidate:
@@ -177,7 +260,7 @@ def _by_gain(options):
 
 
 def diagnose(
-    model, t, x, F, v=None, *,
+    model, t, x=None, F=None, v=None, *,
     effects: Sequence[str] | None = None,
     rules: DiagnosisRules | None = None,
     folds=None,
@@ -192,16 +275,24 @@ def diagnose(
     load=None,
     search_samples: int | None = SEARCH_SAMPLES,
     a=None,
+    run_names: Sequence[str] | None = None,
 ) -> Diagnosis:
-    """Fit `model` to ``(t, x, F[, v])`` (SI) and add, one round at a time, the missing
-    effect that full refits and blocked cross-validation support (`fitting._select`;
+    """Fit `model` to ``(t, x, F[, v])`` (SI), or to several runs (`t` a list of
+    `fitting.Dataset`, as `fitting.fit_datasets` takes), and add, one round at a time, the
+    missing effect that full refits and cross-validation support (`fitting._select`;
     docs/diagnosis.md).
 
+    - Several runs: every fit fits all runs at once (each from its own zero state, shared
+      physical parameters, a per-run parameter, ``param(..., per_run=True)``, per run);
+      the folds are the runs (leave one run out, `fitting._select.run_folds`): an effect
+      is added only when it lowers the error of runs it was not fitted on. A run's
+      `known` force is subtracted; `x`, `F`, `v`, `a`, `load` are then not given (each
+      `Dataset` has its own). `run_names` names the runs in the result (default 1, 2, ...).
     - `rules`: the thresholds (`DiagnosisRules`, every one documented there).
-    - `folds`: ``[(train_weights, test_weights)]`` over the samples (default: the time
-      blocks of `rules`, `fitting._select.time_block_folds`), e.g. one fold per run for a
-      leave-one-run-out diagnosis; each contiguous stretch of a fold's held-out samples is
-      then a block of the rule.
+    - `folds`: ``[(train_weights, test_weights)]`` over the samples (runs concatenated;
+      default: the runs, or for one run the time blocks of `rules`,
+      `fitting._select.time_block_folds`); each contiguous stretch of a fold's held-out
+      samples of one test weight is then a block of the rule.
     - `effects`: names from `jaxfric.effects.EFFECTS` to search (default `effect_names`:
       every effect not already in the model, nor one of its free parameters: ``viscous``
       only when ``sigma2`` is held with `fixed`; the effects of an angle only when
@@ -215,29 +306,32 @@ def diagnose(
       when `v` is not given (``"central"``, ``"savgol"`` or ``"backward"``,
       `fitting._derivatives`), and the acceleration `jaxfric.effects.Inertia` reads by the
       same method, unless `a` (m/s^2) is given.
-    - `search_samples`: a record of at least twice as many samples is searched on about
-      this many (one sample in k) and the baseline and final model refitted on all; None or
-      0 searches on every sample.
+    - `search_samples`: a record of at least twice as many samples (all runs together) is
+      searched on about this many (one sample in k of each run) and the baseline and final
+      model refitted on all; None or 0 searches on every sample.
     - `log`: called with a line of progress for every fit.
 
     Returns a `Diagnosis`; its models are in the fit representation
-    (`fitting.to_fit_representation`).
+    (`fitting.to_fit_representation`); with per-run parameters, ``Diagnosis.model`` has
+    them at their mean over the runs (for a run not fitted) and
+    ``fitting.run_model(d.final.fit.fit_model, i)`` is run ``i``'s model.
     """
     log = log or (lambda *_: None)
     rules = DiagnosisRules() if rules is None else rules
-    given_v = v is not None
-    full, how = _record(t, x, F, v, a, load, derivatives, velocity_window)
-    t = full.t
-    k = t.size // search_samples if search_samples and t.size >= 2 * search_samples else 1
+    full, how, given_v = _inputs(t, x, F, v, a, load, derivatives, velocity_window)
+    names_of_runs = list(run_names) if run_names is not None else [
+        str(i + 1) for i in range(full.n_runs)]
+    if len(names_of_runs) != full.n_runs:
+        raise ValueError(f"run_names: {len(names_of_runs)} names for {full.n_runs} runs")
+    n = full.t.size
+    k = n // search_samples if search_samples and n >= 2 * search_samples else 1
     k, faithful = _faithful_step(full, model, k, log)
-    pick = slice(None, None, k)
-    copy = _subsample(full, k)
+    copy, pick = full.every(k)
     search = (f"effects searched on one sample in {k} ({copy.t.size} samples; {faithful}); "
-              f"the baseline and final model refitted on all {t.size}") if k > 1 else faithful
+              f"the baseline and final model refitted on all {n}") if k > 1 else faithful
     if search:
         log(search)
-    folds = (time_block_folds(copy.t, rules.blocks, rules.folds) if folds is None else
-             [(np.asarray(tr)[pick], np.asarray(te)[pick]) for tr, te in folds])
+    folds, by = _folds(folds, pick, copy, rules, log)
     model = to_fit_representation(model)
     unknown = set(fixed) - set(leaf_names(model))
     if unknown:
@@ -245,14 +339,15 @@ def diagnose(
                          f"{sorted(unknown)}; it has {leaf_names(model)}")
     present = {e.name for e in getattr(model, "effects", ())}
     names = effect_names(effects, present | _contained(model, tuple(fixed)) if not effects
-                         else present, rotary, load is not None)
+                         else present, rotary, full.load is not None)
     fitter = Fitter(copy, fixed, max_steps, log)
     if base_models is None:
+        lr = copy.longest()
         base_models = [("GMS with 20 elements",
-                        initial_model("gms", copy.t, copy.x, copy.F, copy.v, n_elements=20))]
+                        initial_model("gms", lr.t, lr.x, lr.F, lr.v, n_elements=20))]
     rounds = select(fitter, model, names, folds, rules,
                     base_options=lambda: list(base_models), log=log)
-    masks = regimes(full.t, full.x, full.v)
+    masks = _masks(full)
     n_copy = copy.t.size
 
     def cv_rmse(o):
@@ -268,21 +363,55 @@ def diagnose(
         added = [*added, *o.names]
         if o.base:
             finding = (f"the base model is the limit here: {o.name} predicts the held-out "
-                       f"blocks better ({100 * o.gain:.3g} % of their SSE, z = {o.z:.2f}) "
-                       "than any effect added to the base model")
+                       f"{'runs' if by == 'runs' else 'blocks'} better ({100 * o.gain:.3g} % "
+                       f"of their SSE, z = {o.z:.2f}) than any effect added to the base model")
+        last = i == len(chosen) - 1
         res = (_final_fit(fitter, o.fitted, o.on, copy, full, log, " + ".join(added))
-               if i == len(chosen) - 1 else o.result)
-        steps.append(_step(res, added, full if i == len(chosen) - 1 else copy,
-                           cv_rmse(o), masks if i == len(chosen) - 1 else
-                           regimes(copy.t, copy.x, copy.v)))
+               if last else o.result)
+        steps.append(_step(res, added, full if last else copy, cv_rmse(o),
+                           masks if last else _masks(copy)))
+    runs = _run_rows(names_of_runs, full, copy, folds, [first, *chosen],
+                     [base_res, *([steps[-1].fit] if steps else [])])
+    return _result(rounds, baseline, steps, base_res, full, search, finding, by, runs,
+                   model_name or type(model).__name__, how,
+                   None if given_v else {"method": derivatives, "window_s": velocity_window},
+                   log)
+
+
+def _inputs(t, x, F, v, a, load, derivatives, velocity_window) -> tuple[Data, str, bool]:
+    """The record (`Data`) of one run ``(t, x, F, ...)`` or of several (`t` a list of
+    `Dataset`), how the velocity was obtained, and whether it was given."""
+    if isinstance(t, list | tuple) and t and all(isinstance(d, Dataset) for d in t):
+        if any(arr is not None for arr in (x, F, v, a, load)):
+            raise ValueError("diagnose(model, [Dataset, ...]): x, F, v, a and load are "
+                             "given per run, in each Dataset")
+        full, how = _records(list(t), derivatives, velocity_window)
+        return full, how, all(d.v is not None for d in t)
+    if x is None or F is None:
+        raise ValueError("diagnose needs t, x and F (or a list of fitting.Dataset)")
+    full, how = _record(t, x, F, v, a, load, derivatives, velocity_window)
+    return full, how, v is not None
+
+
+def _folds(folds, pick, copy: Data, rules: DiagnosisRules, log) -> tuple[list, str]:
+    """The folds on the searched samples, and what they are: ``"given"``, ``"runs"``
+    (leave one run out) or ``"time blocks"``."""
+    if folds is not None:
+        return [(np.asarray(tr)[pick], np.asarray(te)[pick]) for tr, te in folds], "given"
+    if copy.n_runs > 1:
+        log(f"cross-validation: leave one run out ({copy.n_runs} runs)")
+        return run_folds(copy.t, copy.lengths, rules.blocks), "runs"
+    return time_block_folds(copy.t, rules.blocks, rules.folds), "time blocks"
+
+
+def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, model_name,
+            how, derivatives, log) -> Diagnosis:
     rankings = [[_candidate(o, r.current, o is r.added) for o in _by_gain(r.options)]
                 for r in rounds]
     final = steps[-1].fit.fit_model if steps else base_res.fit_model
-    warnings = {"baseline": plausibility(base_res.fit_model, full.t, full.x, full.v, full.F,
-                                         a=full.a, load=full.load)}
+    warnings = {"baseline": _plausible(base_res.fit_model, full)}
     if steps:
-        warnings["final"] = plausibility(final, full.t, full.x, full.v, full.F, a=full.a,
-                                         load=full.load)
+        warnings["final"] = _plausible(final, full)
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
                "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
@@ -291,9 +420,16 @@ def diagnose(
     if finding:
         log(finding)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings,
-                     holdout=np.zeros(t.size, bool), model=final,
-                     model_name=model_name or type(model).__name__, velocity=how,
+                     holdout=np.zeros(full.t.size, bool), model=run_model(final, None),
+                     model_name=model_name, velocity=how,
                      warnings={k_: w for k_, w in warnings.items() if w}, trials=trials,
-                     search=search, finding=finding,
-                     derivatives=None if given_v else {"method": derivatives,
-                                                             "window_s": velocity_window})
+                     search=search, finding=finding, folds=by, runs=runs,
+                     derivatives=derivatives)
+
+def _plausible(model, full: Data) -> list[str]:
+    """`fitting._plausibility.plausibility` of `model` on each run (flags once each)."""
+    flags: list[str] = []
+    for d in full.runs():
+        flags += [f for f in plausibility(model, d.t, d.x, d.v, d.F, a=d.a, load=d.load)
+                  if f not in flags]
+    return flags

@@ -56,6 +56,13 @@ class Diagnosis:
     #: What the diagnosis found beyond the effects, in words: "the base model is the limit
     #: here: ..." when a richer base model won; empty otherwise.
     finding: str = ""
+    #: What the cross-validation held out: ``"time blocks"`` (one run), ``"runs"`` (leave
+    #: one run out, several runs) or ``"given"`` (``diagnose(..., folds=)``).
+    folds: str = "time blocks"
+    #: Per run: ``{"run": name, "samples", "rmse_holdout": [baseline, after each addition]
+    #: (N, its held-out predictions), "rmse": [baseline, final] (N, in-sample)}``, and
+    #: ``"params"``, its per-run parameters, when the model has some.
+    runs: list[dict] = dataclasses.field(default_factory=list)
 
     @property
     def candidates(self) -> list[Candidate]:
@@ -82,14 +89,31 @@ class Diagnosis:
             "derivatives": self.derivatives,
             "warnings": self.warnings,
             "trials": self.trials,
+            "folds": self.folds,
+            "runs": self.runs,
             **({"search": self.search} if self.search else {}),
             **({"finding": self.finding} if self.finding else {}),
             **({} if self.deadband is None else {"deadband": self.deadband}),
             "fitted_model": saved_model(self.model),
         }
 
+    def run_table(self) -> list[str]:
+        """Each run's held-out RMSE before and after each addition (N), in lines."""
+        heads = ["baseline"] + ["+ " + " + ".join(s.added[len(b.added):])
+                                for b, s in zip([self.baseline, *self.steps], self.steps)]
+        width = max([len(str(r["run"])) for r in self.runs] + [3]) + 2
+        cols = [max(len(h), 8) + 2 for h in heads]
+        lines = [f"held-out RMSE per run, N (folds: {self.folds}):",
+                 f"{'run':<{width}}" + "".join(f"{h:>{w}}" for h, w in zip(heads, cols))]
+        for r in self.runs:
+            lines.append(f"{r['run']!s:<{width}}" + "".join(
+                f"{v:>{w}.4g}" for v, w in zip(r["rmse_holdout"], cols)))
+        return lines
+
     def summary(self) -> str:
-        lines = [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
+        lines = ([f"cross-validation: leave one run out ({len(self.runs)} runs)"]
+                 if self.folds == "runs" else [])
+        lines += [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
                  f"(held out {self.baseline.rmse_holdout:.4g} N, "
                  f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
         if self.velocity:
@@ -109,6 +133,8 @@ class Diagnosis:
                          f"{s.rmse_holdout:.4g} N, {100 * s.rel_error:.3g} %)")
         if not self.steps:
             lines.append("nothing significant to add")
+        if len(self.runs) > 1 or self.folds == "runs":
+            lines += self.run_table()
         if self.finding:
             lines.append(self.finding)
         for which, flags in self.warnings.items():

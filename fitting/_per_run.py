@@ -82,14 +82,31 @@ def with_runs(model, runs: int):
     return WithEffects(model.base, tuple(wrap(e) for e in model.effects))
 
 
-def shifted(datasets):
-    """Checked datasets with run ``i``'s time axis starting at ``i`` seconds."""
-    return [dataclasses.replace(d, t=d.t - d.t[0] + float(i)) for i, d in enumerate(datasets)]
+def shifted(datasets, runs=None):
+    """Checked datasets with run ``i``'s time axis starting at ``i`` seconds; `runs`: the
+    run number of each dataset (default 0, 1, ...; a fit that leaves runs out)."""
+    runs = range(len(datasets)) if runs is None else runs
+    return [dataclasses.replace(d, t=d.t - d.t[0] + float(i)) for i, d in zip(runs, datasets)]
 
 
-def run_model(model, k: int | None):
+def plain_effect(e):
+    """The effect a `_PerRunEffect` wraps (values per run); any other effect unchanged."""
+    return e.effect if isinstance(e, _PerRunEffect) else e
+
+
+def mean_effect(e):
+    """A `_PerRunEffect` with its per-run values at their mean (the effect for a run not
+    fitted); any other effect unchanged."""
+    if not isinstance(e, _PerRunEffect):
+        return e
+    return eqx.tree_at(lambda x: [getattr(x, f) for f in e.fields], e.effect,
+                       [jnp.mean(getattr(e.effect, f)) for f in e.fields])
+
+
+def run_model(model, k: int | None, among=None):
     """The plain model of run `k` of a model fitted with per-run parameters (``None``: the
-    mean over the runs, the model for a run not fitted); any other model unchanged."""
+    mean over the runs `among`, default all, the model for a run not fitted); any other
+    model unchanged."""
     if not isinstance(model, WithEffects) or not any(
             isinstance(e, _PerRunEffect) for e in model.effects):
         return model
@@ -99,7 +116,8 @@ def run_model(model, k: int | None):
             return e
         if k is not None:
             return e.of_run(k)
-        means = [jnp.mean(getattr(e.effect, f)) for f in e.fields]
+        pick = slice(None) if among is None else np.asarray(list(among), int)
+        means = [jnp.mean(getattr(e.effect, f)[pick]) for f in e.fields]
         return eqx.tree_at(lambda x: [getattr(x, f) for f in e.fields], e.effect, means)
 
     return WithEffects(model.base, tuple(plain(e) for e in model.effects))

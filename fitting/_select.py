@@ -45,12 +45,13 @@ import jax
 import numpy as np
 import optimistix as optx
 
-from jaxfric import effects as fx
 from jaxfric._fields import parameter_info
 
 from . import _params
 from ._candidates import _linear, _off, _signals, Data, physical, start_effect, switchable
-from ._fit import fit
+from ._data import Dataset
+from ._fit import fit_datasets
+from ._per_run import shifted, with_runs
 from ._rules import DiagnosisRules
 from ._transforms import Identity, ParamProps
 
@@ -64,12 +65,34 @@ def time_block_folds(t, blocks: int, folds: int) -> list[tuple[np.ndarray, np.nd
             for k in range(folds)]
 
 
+def run_folds(t, lengths, blocks: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Leave one run out: ``[(train_weights, test_weights)]``, fold ``k`` holding out run
+    ``k`` (``lengths[k]`` samples, runs concatenated in order in `t`); the held-out run is
+    cut into ``max(2, ceil(blocks / runs))`` time blocks of equal duration, numbered
+    1, 2, ... in its test weights (each a block of the rule, `_blocks`)."""
+    t = np.asarray(t, float)
+    per = max(2, -(-blocks // len(lengths)))
+    ends = np.cumsum(lengths)
+    out = []
+    for n, end in zip(lengths, ends):
+        run = slice(int(end - n), int(end))
+        tr, test = np.ones(t.size), np.zeros(t.size)
+        tr[run] = 0.0
+        u = t[run] - t[run][0]
+        test[run] = 1 + np.minimum((per * u / max(u[-1], 1e-300)).astype(int), per - 1)
+        out.append((tr, test))
+    return out
+
+
 def _blocks(folds) -> list[tuple[int, np.ndarray]]:
-    """``(fold, sample indices)`` of every contiguous run of each fold's test samples."""
+    """``(fold, sample indices)`` of every block of each fold's test samples: a contiguous
+    stretch of test weights > 0 of one value (`run_folds` numbers the blocks of a run)."""
     out = []
     for k, (_, test) in enumerate(folds):
-        idx = np.flatnonzero(np.asarray(test) > 0)
-        for run in np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1):
+        test = np.asarray(test)
+        idx = np.flatnonzero(test > 0)
+        cut = np.flatnonzero((np.diff(idx) > 1) | (np.diff(test[idx]) != 0)) + 1
+        for run in np.split(idx, cut):
             if run.size:
                 out.append((k, run))
     return out
@@ -111,7 +134,8 @@ def _converged(res) -> bool:
 
 
 class Fitter:
-    """Fits on one record: `superset` models, each with its own slots switched on."""
+    """Fits on one record (one run or several, `Data`): `superset` models, each with its
+    own slots switched on."""
 
     def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None):
         self.data, self.fixed, self.max_steps = data, tuple(fixed), max_steps
@@ -145,13 +169,26 @@ class Fitter:
         return sum(n for n, p in zip(sizes, _params.props_leaves(props)) if p.free)
 
     def fit(self, model, on: frozenset, weights=None):
-        """``(fitted model in the fit representation, prediction on every sample)``."""
+        """``(fitted model in the fit representation, prediction on every sample)``: one
+        fit of every run at once (`fitting.fit_datasets`: each run from its own zero state,
+        per-run parameters per run); a run of zero weight is left out of the fit and predicted with
+        its per-run parameters at their mean over the runs fitted (`Data.simulate`)."""
         d = self.data
+        runs = d.runs()
+        model = with_runs(model, len(runs))
         fit_model, props = self.props(model, on)
-        res = fit(fit_model, d.t, d.x, d.F, d.v, props=props, weights=weights,
-                  max_steps=self.max_steps, load=d.load, a=d.a)
+        w = ([None] * len(runs) if weights is None else
+             [np.asarray(weights, float)[sl] for sl in d.slices()])
+        fitted = [i for i, wi in enumerate(w) if wi is None or np.any(wi > 0)]
+        sets = [Dataset(t=runs[i].t, x=runs[i].x, F=runs[i].F, v=runs[i].v, a=runs[i].a,
+                        load=runs[i].load, weights=w[i]) for i in fitted]
+        res = fit_datasets(fit_model, shifted(sets, fitted) if len(runs) > 1 else sets,
+                           props=props, max_steps=self.max_steps)
+        if len(runs) == 1:
+            res = eqx.tree_at(lambda r: (r.prediction, r.residuals), res,
+                              (res.prediction[0], res.residuals[0]))
         self.last = res
-        return res.fit_model, d.simulate(res.fit_model)
+        return res.fit_model, d.simulate(res.fit_model, fitted)
 
     def fold_fit(self, model, on: frozenset, train):
         """`fit` on a fold's training samples, continued once from where it stopped when
@@ -237,7 +274,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     data = fitter.data
     names = [n for n in candidates if switchable(n)]
     plain = _params.to_fit_representation(start)
-    slots = [_off(fx.EFFECTS[n].grid(data.t, data.x, data.v, data.F)[0]) for n in names]
+    slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
     fitted, pred = fitter.fit(superset, frozenset())

@@ -41,7 +41,7 @@ from ._signals import (
     velocity_words,
 )
 from .plots import plot_fit
-from .runs import run_compare_runs, run_fit_runs, several
+from .runs import run_compare_runs, run_diagnose_runs, run_fit_runs, several
 
 
 def _progress(log, scale: float, unit: str):
@@ -139,6 +139,8 @@ def fit_measurement(args, kind: str, m, log):
 def run_diagnose(args) -> int:
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     kind = MODEL_NAMES[args.model]
+    if several(args):
+        return run_diagnose_runs(args, kind, log)
     if _data.joint_layout(args.file):
         from .joints import diagnose_joints
 
@@ -161,6 +163,8 @@ def diagnose_measurement(args, kind: str, m, log, report):
         log = lambda *a: plain(*(_units.speak(str(s), m.kind) for s in a))
     m, deadband = played_measurement(m, _deadband_option(args.deadband, None), log)
     force, column = m.force, m.force_column
+    if m.known is not None:  # --known-force: subtracted, not fitted
+        force = force - m.known
     if column == "u":
         log("note: the file has the drive force u (not F): the model starts as friction only; "
             "inertia and offset are among the effects the diagnosis looks for")

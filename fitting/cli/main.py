@@ -78,8 +78,14 @@ cross-validation) with physical values; report the error per regime before and a
 A file with the drive force u instead of F is diagnosed from a friction-only model:
 inertia and offset are then among the effects it should find.
 
+Several files are runs of one machine, diagnosed together: every fit fits all of them
+(shared parameters, per-run offsets), and the held-out data are the runs (leave one run
+out): an effect is added only when it predicts runs it was not fitted on better.
+--validate FILE... gives the error of the baseline and diagnosed models on runs not used.
+
 examples:
   jaxfric diagnose run1.csv
+  jaxfric diagnose slow.csv mid.csv fast.csv --validate other.csv --json diag.json
   jaxfric diagnose run1.csv --model gms --elements 10 --json diag.json --report diag/
 """
 
@@ -271,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=DIAGNOSE_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _add_data_options(p, files="list")
+    _add_data_options(p, files="runs")
     p.add_argument("--model", default="two-state",
                    choices=["two-state", "two_state", "gms", "lugre", "tustin"],
                    help="model to start from (default: %(default)s)")
@@ -347,7 +353,7 @@ _INPUTS = {
     "fit": (("FILE", "files"), ("--validate", "validate"), ("--params", "params")),
     "simulate": (("FILE", "file"), ("--params", "params")),
     "compare": (("FILE", "files"), ("--validate", "validate")),
-    "diagnose": (("FILE", "files"),),
+    "diagnose": (("FILE", "files"), ("--validate", "validate")),
     "export": (("RESULT.json", "result"),),
 }
 
@@ -372,14 +378,9 @@ def _check_outputs(args) -> None:
 
 def _several_files(args) -> None:
     """``args.files``: the list of FILE arguments (``args.file`` is the first, what the
-    one-file code reads). `diagnose` takes one file."""
+    one-file code reads)."""
     if not isinstance(getattr(args, "file", None), list):
         return
     args.files = args.file
     args.file = args.files[0]
-    if args.command == "diagnose" and len(args.files) > 1:
-        from jaxfric.data import DataError
-
-        raise DataError(f"diagnose takes one file now ({len(args.files)} given); fit one "
-                        "model to several runs with 'jaxfric fit FILE... --validate FILE...'")
 

@@ -41,14 +41,41 @@ def _regimes_table(before: dict, after: dict, unit: str) -> str:
                    "fall"], rows)
 
 
-def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
+def _runs_tables(d, validation, unit: str, kind: str) -> list[str]:
+    """The per-run tables of a diagnosis of several runs: each run's held-out RMSE before
+    and after each addition (and its in-sample RMSE), and the runs not used
+    (`validation`: ``--validate``), by the baseline and the diagnosed model."""
+    if len(d.runs) < 2 and not validation:
+        return []
+    heads = ["baseline"] + [f"+ {' + '.join(s.added[len(b.added):])}"
+                            for b, s in zip([d.baseline, *d.steps], d.steps)]
+    rows = [[Path(str(r["run"])).name, r["samples"], *(f"{v:.4g}" for v in r["rmse_holdout"]),
+             *(f"{v:.4g}" for v in r["rmse"])] for r in d.runs]
+    ins = ["in-sample baseline"] + (["in-sample final"] if d.steps else [])
+    out = [f"<h2>Error per run (cross-validation folds: {html.escape(d.folds)})</h2>",
+           "<p>held-out RMSE: each run predicted by the models fitted without it "
+           f"[{unit}]</p>",
+           _table(["run", "samples", *heads, *ins], rows)]
+    if validation:
+        out += ["<h2>Runs not used (--validate)</h2>",
+                _table(["run", "samples", f"baseline [{unit}]", f"diagnosed [{unit}]"],
+                       [[Path(v["file"]).name, v["samples"],
+                         f"{v['baseline']['rmse']:.4g}", f"{v['diagnosed']['rmse']:.4g}"]
+                        for v in validation])]
+    return out
+
+
+def write_report(out_dir, m, d, *, title: str, intro: str = "", shown=None,
+                 validation=None) -> Path:
     """Figures (`plot_diagnosis`), ``diagnosis.json`` and ``report.html`` in `out_dir`.
     `m` has ``t, x, F`` and ``velocity()`` (and ``kind``, linear unless it says rotary: then
-    every unit on the page is rotary); `d` is a `fitting.Diagnosis`. Returns the page."""
+    every unit on the page is rotary); `d` is a `fitting.Diagnosis`. Several runs: `shown`
+    is `d` as the figures read it (predictions concatenated, `m` the runs end to end),
+    `validation` the errors of the runs not used. Returns the page."""
     out = Path(out_dir)
     kind = getattr(m, "kind", _units.LINEAR)
     unit = _units.si_unit("F", kind)
-    files = plot_diagnosis(out, m, d)
+    files = plot_diagnosis(out, m, d if shown is None else shown)
     write_json(out / "diagnosis.json", diagnosis_json(d, kind))
     def num(value, fmt):
         return format(value, fmt) if np.isfinite(value) else "-"
@@ -83,6 +110,7 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "") -> Path:
         "largest gain.</p>",
         _table(["candidate", "gain", "z", "added", "evidence"], cands),
         f"<h3>Added in code</h3><ul>{code or '<li>nothing</li>'}</ul>",
+        *_runs_tables(d, validation, unit, kind),
         "<h2>Error per regime, before and after</h2>",
         _regimes_table(_units.speak_json(d.baseline.regimes, kind),
                        _units.speak_json(d.final.regimes, kind), unit),

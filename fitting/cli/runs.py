@@ -1,4 +1,4 @@
-"""``jaxfric fit`` and ``compare`` with several runs (files) and ``--validate``.
+"""``jaxfric fit``, ``compare`` and ``diagnose`` with several runs (files) and ``--validate``.
 
 Every file is read with its own unit, column and sign detection (runs may differ in
 sampling rate, units and columns) and converted to SI; one model is fitted to all the
@@ -6,6 +6,10 @@ fitted runs at once (`fitting.fit_datasets`: shared physical parameters, per-run
 parameters where an effect declares them), and the runs given to ``--validate`` are only
 predicted: the model for them is the fitted one with each per-run parameter at its mean
 over the fitted runs (`fitting.run_model`), since a run not fitted has no value of its own.
+
+``diagnose`` with several files diagnoses them together (`fitting.diagnose`: leave one
+run out), and predicts the runs given to ``--validate`` with the baseline and with the
+diagnosed model.
 
 Errors are RMSE of ``prediction + known - force`` per run and per regime
 (`fitting._regimes`); the sliding speed bands are the terciles of the sliding speeds of
@@ -65,7 +69,8 @@ class Run:
 
 
 def several(args) -> bool:
-    """Whether a ``fit``/``compare`` command line names several runs or runs to validate."""
+    """Whether a ``fit``/``compare``/``diagnose`` command line names several runs or runs
+    to validate."""
     return len(getattr(args, "files", ())) > 1 or bool(getattr(args, "validate", None))
 
 
@@ -291,5 +296,97 @@ def run_compare_runs(args, kinds: list[str], log) -> int:
                                "validate": [r.name for r in held], "kind": m0.kind,
                                "regime_speed_bands": _speed_bands(fitted),
                                "models": results, **known})
+        log(f"JSON written to {args.json}")
+    return 0
+
+
+def _timeline(runs: list[Run]) -> np.ndarray:
+    """The runs' times laid end to end (each run from where the previous one ended, plus
+    one of its sampling steps), for figures of several runs on one axis."""
+    out, end = [], 0.0
+    for r in runs:
+        t = r.m.t - r.m.t[0]
+        out.append(t + end)
+        end = out[-1][-1] + (float(np.median(np.diff(t))) if t.size > 1 else 1.0)
+    return np.concatenate(out)
+
+
+def _write_runs_report(args, d, fitted: list[Run], validation: list[dict], log) -> None:
+    """``--report`` of a diagnosis of several runs: the figures over the runs laid end to
+    end (`_timeline`), the per-run tables on the page."""
+    from types import SimpleNamespace
+
+    from .._diagnose import _prediction
+    from ._output import output_folder
+    from .report import write_report
+
+    def view(step):
+        fit = SimpleNamespace(prediction=_prediction(step.fit),
+                              model=run_model(step.fit.model, None))
+        return SimpleNamespace(**{**vars(step), "fit": fit})
+
+    shown = SimpleNamespace(**{**vars(d), "baseline": view(d.baseline),
+                               "final": view(d.final)})
+    v = np.concatenate([r.v for r in fitted])
+    m = SimpleNamespace(t=_timeline(fitted), x=np.concatenate([r.m.x for r in fitted]),
+                        F=np.concatenate([r.force for r in fitted]), velocity=lambda: v,
+                        kind=fitted[0].m.kind)
+    with output_folder(args.report):
+        page = write_report(args.report, m, d, shown=shown, validation=validation,
+                            title="jaxfric diagnose " + " ".join(
+                                Path(r.name).name for r in fitted))
+    log(f"report written to {page} (figures and diagnosis.json beside it)")
+
+
+def run_diagnose_runs(args, kind: str, log) -> int:
+    """``jaxfric diagnose`` with several files and/or ``--validate``: one diagnosis of all
+    the files (leave one run out, `fitting.diagnose`), the runs to validate predicted by
+    the baseline and by the diagnosed model (per-run parameters at their mean)."""
+    from .._diagnose import diagnose
+    from ._io import diagnosis_json
+
+    fitted = load_runs(args, args.files, log, drive_ok=True)
+    held = load_runs(args, args.validate or [], log, drive_ok=True)
+    if len({r.m.kind for r in fitted + held}) > 1:
+        raise _data.DataError("the fitted and validation runs mix linear and rotary files: "
+                              "declare the units (or --kind)")
+    m0 = fitted[0].m
+    if m0.kind == _units.ROTARY:  # the diagnosis speaks SI linear words: say them rotary
+        plain = log
+        log = lambda *a: plain(*(_units.speak(str(s), m0.kind) for s in a))
+    first = fitted[0]
+    with about(first.name):
+        start = initial_model(kind, first.m.t, first.m.x, first.target(), first.v,
+                              n_elements=args.elements)
+    sets = [Dataset(t=r.m.t, x=r.m.x, F=r.force, v=r.v, a=r.a, load=r.m.load,
+                    known=r.m.known) for r in fitted]
+    t0 = time.perf_counter()
+    with about(", ".join(r.name for r in fitted)):
+        d = diagnose(start, sets, max_steps=args.max_steps, model_name=kind, log=log,
+                     rotary=m0.kind == _units.ROTARY,
+                     search_samples=getattr(args, "search_samples", None),
+                     run_names=[r.name for r in fitted])
+    d.velocity, d.derivatives = first.velocity, derivatives_json(m0, args)
+    d.deadband = first.deadband
+    log(f"\n{d.summary()}\n({time.perf_counter() - t0:.1f} s)")
+    bands = _speed_bands(fitted)
+    base = run_model(d.baseline.fit.fit_model, None)
+    validation = [{"file": r.name, "samples": len(r.m),
+                   "baseline": run_errors(r, predict(base, r), bands, m0.kind),
+                   "diagnosed": run_errors(r, predict(d.model, r), bands, m0.kind)}
+                  for r in held]
+    if validation:
+        rows = [{**v[which], "role": which} for v in validation
+                for which in ("baseline", "diagnosed")]
+        log("\nruns not used (validation):\n" + "\n".join(
+            _table(rows, list(rows[0]["regimes"]), m0.unit("F"))))
+    if args.report:
+        _write_runs_report(args, d, fitted, validation, log)
+    if args.json:
+        out = {**diagnosis_json(d, m0.kind), "files": [r.name for r in fitted],
+               "validation": validation, "regime_speed_bands": bands}
+        if args.known_force:
+            out["known_force"] = {"column": args.known_force, "unit": m0.unit("F")}
+        write_json(args.json, out)
         log(f"JSON written to {args.json}")
     return 0

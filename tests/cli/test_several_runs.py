@@ -149,11 +149,40 @@ def test_compare_several_runs_with_validation(files, run, tmp_path):
     assert "validation" in text and "RMSE per run and regime" in text
 
 
-def test_diagnose_takes_one_file(files, run):
-    rc, _, err = run("diagnose", files[0], files[1])
-    assert rc == 2
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "diagnose takes one file" in lines[0]
+def test_diagnose_several_files_leaves_one_run_out(files, run, tmp_path, monkeypatch):
+    """``jaxfric diagnose a.csv b.csv --validate c.csv``: one diagnosis of both runs with
+    the runs as folds, each run's held-out error in the table, the JSON and the report, and
+    the validation run predicted by the baseline and the diagnosed model. (The search is
+    cut to one candidate and no base-model change, to keep the test short: the plumbing is
+    tested here, the decision in tests/diagnosis/test_several_runs.py.)"""
+    import functools
+
+    from fitting import _diagnose
+
+    monkeypatch.setattr(_diagnose, "diagnose", functools.partial(
+        _diagnose.diagnose, effects=("offset",), base_models=()))
+    out, report = tmp_path / "diag.json", tmp_path / "report"
+    rc, text, err = run("diagnose", files[0], files[1], "--validate", files[2], "--model",
+                        "tustin", "--known-force", "pulse", "--json", out, "--report", report)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    assert saved["folds"] == "runs" and saved["files"] == [str(files[0]), str(files[1])]
+    assert [Path(r["run"]).name for r in saved["runs"]] == ["a.csv", "b.csv"]
+    # the per-run held-out errors are those of fitting.diagnose on the same two runs
+    runs = _python_datasets(files[:2])
+    start = fitting.initial_model("tustin", runs[0].t, runs[0].x, runs[0].F, runs[0].v)
+    d = fitting.diagnose(start, runs, effects=("offset",), base_models=())
+    assert d.folds == "runs" and saved["after"]["added"] == d.final.added
+    for r, mine in zip(saved["runs"], d.runs):
+        assert len(r["rmse_holdout"]) == 1 + len(saved["after"]["added"])
+        np.testing.assert_allclose(r["rmse_holdout"], mine["rmse_holdout"], rtol=1e-6)
+        assert len(r["rmse"]) == len(r["rmse_holdout"][:2]) and min(r["rmse"]) > 0
+    (v,) = saved["validation"]
+    assert Path(v["file"]).name == "c.csv"
+    assert 0 < v["diagnosed"]["rmse"] and 0 < v["baseline"]["rmse"]
+    assert "held-out RMSE per run" in text and "runs not used" in text
+    page = (report / "report.html").read_text()
+    assert "Error per run" in page and "Runs not used" in page
 
 
 @pytest.mark.parametrize("which", [1, 2])
