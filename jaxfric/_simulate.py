@@ -308,7 +308,7 @@ def simulate_many(
     v: ArrayLike | None = None,
     *,
     model_axis: int | None = 0,
-    chunk: int = 32,
+    chunk: int | None = None,
     full_output: bool = False,
     max_reversals: int | None = None,
     load: ArrayLike | None = None,
@@ -326,10 +326,10 @@ def simulate_many(
       inputs, directions and reversals are then computed once), or B motions ``(B, n)``.
       Units and rules as in `simulate`.
     - `chunk`: how many batch items run together (a ``vmap`` of `chunk` inside a
-      ``lax.map`` over the batch). Small enough that a chunk's arrays stay in the CPU's
-      caches, large enough to amortise the sequential loops: on the 2-core benchmark
-      machine the default ran 1.2x (256 motions) to 1.7x (256 parameter sets) as fast
-      as a plain ``vmap`` (benchmarks/montecarlo_speed.py); on a GPU use the batch size.
+      ``lax.map`` over the batch). Default: the whole batch where the compiled forward
+      kernel runs (one call, its threads sharing the items), else 32, small enough that
+      a chunk's arrays stay in the CPU's caches on the JAX path
+      (benchmarks/montecarlo_speed.py); on a GPU use the batch size.
     - `full_output`, `max_reversals`: as in `simulate` (the bound is the largest over the
       batch when computed from concrete data).
     - `load`, `a`: the transmitted load (N) and the acceleration (m/s^2) as in `simulate`,
@@ -356,6 +356,11 @@ def simulate_many(
     load, a = (_checked_batch_input(u, t, name) for u, name in ((load, "load"), (a, "a")))
     models = jax.tree.map(_strong, models)
     max_reversals = _max_reversals(models, t, x, v, max_reversals)
+    if chunk is None:
+        kernel = type(models) is TwoState and _forward_kernel.supported(
+            models, t, x, v, scalar_params=False)
+        chunk = (t.shape[0] if t.ndim == 2 else jax.tree.leaves(
+            eqx.filter(models, eqx.is_array))[0].shape[model_axis]) if kernel else 32
     result = _run_many(models, t, x, v, max_reversals, model_axis, operator.index(chunk),
                        full_output, load, a, _kernel.mode())
     if not isinstance(result.overflow, jax.core.Tracer) and int(jnp.sum(result.overflow)) > 0:
