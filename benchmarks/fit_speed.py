@@ -354,15 +354,18 @@ def _kept_cells(path, sizes, models, motions) -> list:
 
 
 def _note(kept, new) -> str | None:
-    """Which cells come from which run, when they come from several (``--update``)."""
+    """Which cells come from which run, when they come from several (``--update``): the
+    time span of each model's cells (each cell's ``measured_utc`` says when it ran)."""
     if not kept:
         return None
-    when = sorted({c.get("measured_utc", "an earlier run") for c in new})
-    when = when[0] if len(when) == 1 else f"{when[0]} to {when[-1]}"
-    models = ", ".join(sorted({c["model"] for c in new}))
-    return (f"{len(new)} cells ({models}) re-measured at {when} UTC with --update; the "
-            f"other {len(kept)} come from an earlier full run, not re-run with the current "
-            "code.")
+    spans = []
+    for model in MODELS:
+        when = sorted({c.get("measured_utc", "an earlier run") for c in kept + new
+                       if c["model"] == model})
+        if when:
+            spans.append(f"{model} {when[0]}" + (f" to {when[-1]}" if len(when) > 1 else ""))
+    return ("cells measured in several runs (--update), by model (UTC): " + "; ".join(spans)
+            + ". Cells from an earlier run were not re-run with the current code.")
 
 
 def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
