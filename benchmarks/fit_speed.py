@@ -365,7 +365,7 @@ def _note(kept, new) -> str | None:
         if when:
             spans.append(f"{model} {when[0]}" + (f" to {when[-1]}" if len(when) > 1 else ""))
     return ("cells measured in several runs (--update), by model (UTC): " + "; ".join(spans)
-            + ". Cells from an earlier run were not re-run with the current code.")
+            + ". Each model's cells ran with the code of their time.")
 
 
 def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
