@@ -48,7 +48,15 @@ from ._gc import paused_gc
 from ._per_run import has_per_run, run_model, shifted, with_runs
 from ._problem import _Problem, _problem
 from ._result import _assemble, _warn_overflow, FitResult
-from ._solve import _solve, _solve_batch, _solve_batch_on_devices, default_solver, MIN_R2
+from ._solve import (
+    _solve,
+    _solve_batch,
+    _solve_batch_on_devices,
+    default_solver,
+    device_shares,
+    join_shares,
+    MIN_R2,
+)
 from ._stopping import Tolerances
 
 
@@ -363,28 +371,13 @@ def fit_batch(
 def _chunked_on_devices(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                         tol: Tolerances, vectorize: bool, devices):
     """`solve_chunked_batch` of the B datasets of `data`, split into contiguous shares,
-    one per device, each share placed on its device and solved there in its own thread (the
-    loops between chunks are Python; the devices compute at once). The last share is
-    padded with copies of its last dataset, so that all shares have one shape (one
-    compilation), and the copies are dropped."""
+    one per device (`device_shares`), each share placed on its device and solved there in
+    its own thread (the loops between chunks are Python; the devices compute at once)."""
     if devices is None or len(devices) <= 1:
         return solve_chunked_batch(problem, y0, data, solver, max_steps, tol, vectorize)[0]
-    count = jax.tree.leaves(data)[0].shape[0]
-    share = -(-count // len(devices))
-    parts = []
-    for k, device in enumerate(devices):
-        part = jax.tree.map(lambda a, k=k: np.asarray(a[k * share:(k + 1) * share]), data)
-        size = jax.tree.leaves(part)[0].shape[0]
-        if size == 0:
-            break
-        if size < share:
-            part = jax.tree.map(
-                lambda a, pad=share - size: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]),
-                part)
-        parts.append((size, jax.device_put((problem, y0, part), device)))
+    parts = [(size, jax.device_put((problem, y0, part), device))
+             for size, part, device in device_shares(data, devices)]
     with ThreadPoolExecutor(len(parts)) as pool:
         jobs = [(size, pool.submit(solve_chunked_batch, *placed, solver, max_steps, tol,
                                    vectorize)) for size, placed in parts]
-        cores = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], job.result()[0])
-                 for size, job in jobs]
-    return jax.tree.map(lambda *a: np.concatenate(a), *cores)
+        return join_shares([(size, job.result()[0]) for size, job in jobs])

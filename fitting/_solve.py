@@ -306,19 +306,14 @@ def _correlation(cov):
     return jnp.where(denom > 0, cov / jnp.where(denom > 0, denom, 1.0), jnp.nan)
 
 
-def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize,
-                            decrease=Tolerances.decrease,
-                            undetermined=Tolerances.undetermined):
-    """`_solve_batch` with the B datasets split into contiguous shares, one per device.
-
-    Each share is placed on its device and solved there by the same compiled function;
-    JAX dispatches asynchronously, so the devices work at the same time, and the solver
-    loops never wait for one another (a GSPMD-partitioned `vmap` would synchronise every
-    iteration of every loop across devices). The last share is padded with copies of its
-    last dataset, so that all shares have one shape, and the copies are dropped."""
+def device_shares(data, devices) -> list[tuple[int, object, object]]:
+    """``[(size, share, device)]``: the B datasets of `data` (a leading axis on every
+    leaf) split into contiguous shares, one per device; the last share is padded with
+    copies of its last dataset, so that all shares have one shape (one compilation).
+    `join_shares` drops the copies."""
     count = jax.tree.leaves(data)[0].shape[0]
     share = -(-count // len(devices))
-    pending = []
+    out = []
     for k, device in enumerate(devices):
         lo, hi = k * share, (k + 1) * share
         part = jax.tree.map(lambda a, lo=lo, hi=hi: np.asarray(a[lo:hi]), data)
@@ -329,8 +324,30 @@ def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vecto
             part = jax.tree.map(
                 lambda a, pad=share - size: np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]),
                 part)
+        out.append((size, part, device))
+    return out
+
+
+def join_shares(results) -> object:
+    """The results ``[(size, batched result)]`` of `device_shares`, padding dropped,
+    concatenated along the batch axis."""
+    shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in results]
+    return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)
+
+
+def _solve_batch_on_devices(problem, y0, data, solver, max_steps, devices, vectorize,
+                            decrease=Tolerances.decrease,
+                            undetermined=Tolerances.undetermined):
+    """`_solve_batch` with the B datasets split into contiguous shares, one per device
+    (`device_shares`).
+
+    Each share is placed on its device and solved there by the same compiled function;
+    JAX dispatches asynchronously, so the devices work at the same time, and the solver
+    loops never wait for one another (a GSPMD-partitioned `vmap` would synchronise every
+    iteration of every loop across devices)."""
+    pending = []
+    for size, part, device in device_shares(data, devices):
         problem_k, y0_k, part = jax.device_put((problem, y0, part), device)
         pending.append((size, _solve_batch(problem_k, y0_k, part, solver, max_steps,
                                            vectorize, decrease, undetermined)))
-    shares = [jax.tree.map(lambda a, n=size: np.asarray(a)[:n], out) for size, out in pending]
-    return jax.tree.map(lambda *parts: np.concatenate(parts), *shares)
+    return join_shares(pending)
