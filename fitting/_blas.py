@@ -15,38 +15,18 @@ previous counts afterwards. Results do not change: a one-thread BLAS does the sa
 arithmetic in the same blocks.
 """
 
-import contextlib
-import threading
-
 from threadpoolctl import threadpool_limits
+
+from ._outermost import outermost
 
 
 #: False: `single_threaded_blas` does nothing (for benchmarks/profiling/profile_fit_fixed.py,
 #: which times fits both ways).
 ENABLED = True
 
-_lock = threading.Lock()
-_depth = 0
-_limits = None
-
-
-@contextlib.contextmanager
-def single_threaded_blas():
+single_threaded_blas = outermost(
+    lambda: threadpool_limits(limits=1, user_api="blas"),
+    lambda limits: limits.restore_original_limits(),
+    lambda: ENABLED,
     """Every BLAS of the process on one thread inside the block (module docstring); nested
-    and concurrent blocks keep it so until the outermost one ends."""
-    global _depth, _limits
-    if not ENABLED:
-        yield
-        return
-    with _lock:
-        if _depth == 0:
-            _limits = threadpool_limits(limits=1, user_api="blas")
-        _depth += 1
-    try:
-        yield
-    finally:
-        with _lock:
-            _depth -= 1
-            if _depth == 0:
-                _limits.restore_original_limits()
-                _limits = None
+    and concurrent blocks keep it so until the outermost one ends.""")

@@ -11,36 +11,23 @@ and cycles made during the fit are collected by the next collection after it.
 ``benchmarks/profiling/profile_fit_fixed.py`` times fits with and without it.
 """
 
-import contextlib
 import gc
-import threading
+
+from ._outermost import outermost
 
 
 #: False: `paused_gc` does nothing (for benchmarks/profiling/profile_fit_fixed.py).
 ENABLED = True
 
-_lock = threading.Lock()
-_depth = 0
-_was_enabled = False
+
+def _pause() -> bool:
+    was = gc.isenabled()
+    gc.disable()
+    return was
 
 
-@contextlib.contextmanager
-def paused_gc():
+paused_gc = outermost(
+    _pause, lambda was: gc.enable() if was else None, lambda: ENABLED,
     """The cyclic garbage collector disabled inside the block (module docstring); nested
-    and concurrent blocks keep it so until the outermost one ends."""
-    global _depth, _was_enabled
-    if not ENABLED:
-        yield
-        return
-    with _lock:
-        if _depth == 0:
-            _was_enabled = gc.isenabled()
-            gc.disable()
-        _depth += 1
-    try:
-        yield
-    finally:
-        with _lock:
-            _depth -= 1
-            if _depth == 0 and _was_enabled:
-                gc.enable()
+    and concurrent blocks keep it so until the outermost one ends, and a collector that
+    was off stays off.""")
