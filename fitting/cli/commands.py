@@ -274,39 +274,103 @@ def _json_kind(path) -> str | None:
 
 
 def run_simulate(args) -> int:
-    import jaxfric
-    from jaxfric import paper
-
     log = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    if _data.joint_layout(args.file):
+    files = getattr(args, "files", None) or [args.file]
+    if len(files) == 1 and _data.joint_layout(args.file):
+        if args.run is not None:
+            raise _data.DataError("--run picks a run of a fit to several files; a joint file "
+                                  "is simulated with each joint's own fit")
         from .joints import simulate_joints
 
         return simulate_joints(args, MODEL_NAMES[args.model or "two-state"], log,
                                model_from_json)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", _data.DataWarning)
-        m = _data.load(args.file, units=parse_units(args.units), require_force=False,
-                       check_sign=False, kind=cli_kind(args))
-    print_warnings(caught, args)
-    for note in m.notes:
-        log(f"note: {note}")
+    for path in files[1:] if len(files) > 1 else ():
+        if _data.joint_layout(path):
+            raise _data.DataError(f"{path}: holds several joints; simulate a joint file alone")
+    measurements = []
+    for path in files:  # every file read (and checked) before any work
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", _data.DataWarning)
+            m = _data.load(path, units=parse_units(args.units), require_force=False,
+                           check_sign=False, kind=cli_kind(args))
+        print_warnings(caught, args)
+        for note in m.notes:
+            log(f"note: {note}")
+        measurements.append(m)
+    model = _simulated_model(args, measurements, log)
+    # The velocity the fit used, so that the model's force is the fit's prediction.
+    args = derivatives_as_saved(args, _saved_derivatives(args.params) if args.params else {})
+    if len(files) == 1:
+        return _simulate_file(args, measurements[0], model, Path(args.out), log)
+    folder = Path(args.out_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    code = 0
+    for m, name in zip(measurements, args.out_dir_names):
+        log(f"\n{m.source}:")
+        code = max(code, _simulate_file(args, m, model, folder / name, log))
+    return code
+
+
+def _simulated_model(args, measurements, log):
+    """The model ``simulate`` runs: the one of ``--params`` (``--run K``: the fitted model
+    of run K of a fit to several runs), else `--model` with the paper's values."""
+    from jaxfric import paper
+
     kind = _kind_of_command(args)
-    if args.params:
-        model, what = model_from_json(args.params, kind)
-        fitted_on = _json_kind(args.params)
+    if not args.params:
+        if args.run is not None:
+            raise _data.DataError("--run picks a run of the fit in --params; give --params")
+        log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
+        model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
+                 "tustin": paper.tustin}[kind]()
+        return _with_stack_size(model, args.stack_size)
+    fitted_on = _json_kind(args.params)
+    for m in measurements:
         if fitted_on in _units.KINDS and fitted_on != m.kind:
             raise _data.DataError(f"{args.params}: the model was fitted to {fitted_on} data, "
                                   f"{m.source} is {m.kind} (declare its units or --kind)")
-        log(f"model: {what}")
-    else:
-        model = {"two-state": paper.two_state, "gms": paper.gms5, "lugre": paper.lugre,
-                 "tustin": paper.tustin}[kind]()
-        log(f"model: {kind} with the paper's parameters (give --params FIT.json for yours)")
-    # The velocity the fit used, so that the model's force is the fit's prediction.
-    args = derivatives_as_saved(args, _saved_derivatives(args.params) if args.params else {})
+    model, what = model_from_json(args.params, kind)
+    runs = _json_runs(args.params)
+    if args.run is not None:
+        if not runs:
+            raise _data.DataError(f"--run {args.run}: {args.params} is a fit to one run")
+        if not 1 <= args.run <= len(runs):
+            raise _data.DataError(f"--run {args.run}: {args.params} is a fit to {len(runs)} "
+                                  f"runs (1 to {len(runs)})")
+        saved = runs[args.run - 1].get("fitted_model")
+        if isinstance(saved, dict):  # per-run parameters: that run's own values
+            model = _loaded(saved, args.params)
+            what = (f"{type(model).__name__} of run {args.run} "
+                    f"({runs[args.run - 1].get('file', '?')}) as fitted in {args.params}")
+    elif any(isinstance(r.get("fitted_model"), dict) for r in runs):
+        what += ("; per-run parameters at their mean over the fitted runs (--run K for "
+                 "run K's own)")
+    log(f"model: {what}")
+    return _with_stack_size(model, args.stack_size)
+
+
+def _json_runs(path) -> list[dict]:
+    """The ``"runs"`` of a fit to several runs saved in `path` (``[]`` for one run)."""
+    runs = json.loads(Path(path).read_text()).get("runs")
+    return [r for r in runs if isinstance(r, dict)] if isinstance(runs, list) else []
+
+
+def _loaded(saved: dict, path):
+    """A model saved by `jaxfric.save_model`, read from `path`."""
+    import jaxfric
+
+    try:
+        return jaxfric.load_model(saved)
+    except (ValueError, TypeError) as e:
+        raise _data.DataError(f"{path}: {e}") from None
+
+
+def _simulate_file(args, m, model, target: Path, log) -> int:
+    """Simulate `model` along measurement `m` and write the force to `target` (CSV)."""
+    import jaxfric
+
     m, _ = played_measurement(m, _deadband_option(args.deadband, args.params), log)
     v, a, _ = identification_derivatives(m, args, log)
-    model = _with_stack_size(model, args.stack_size)
     out = jaxfric.simulate(model, m.t, m.x, v, full_output=True, load=_load_of(m, model),
                            a=a)
     force = np.asarray(out.force)
@@ -316,7 +380,6 @@ def run_simulate(args) -> int:
         err = force - m.force
         log(f"RMSE against {m.force_column}: {float(np.sqrt(np.mean(err**2))):.4g} "
             f"{m.unit('F')}")
-    target = Path(args.out)
     units = [m.unit(c) for c in ("t", "x", "v", "F", "F")]
     header = ",".join(f"{k}[{u}]" for k, u in zip(cols, units))
     with atomic_file(target) as f:

@@ -1,6 +1,7 @@
 """The ``jaxfric`` command line."""
 
 import argparse
+import glob
 import signal
 import sys
 import threading
@@ -100,6 +101,8 @@ that fit estimated them, so the force is the fit's prediction).
 examples:
   jaxfric simulate motion.csv --model two-state --out forces.csv
   jaxfric fit run1.csv --json fit.json && jaxfric simulate run2.csv --params fit.json
+  jaxfric fit a.csv b.csv --json fit.json && jaxfric simulate a.csv b.csv c.csv \\
+      --params fit.json --out forces/
 """
 
 COMPARE_HELP = """\
@@ -234,27 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_derivative_options(p)
     p.set_defaults(func=_fit)
 
-    p = sub.add_parser(
-        "simulate",
-        help="simulate a model along a file's motion",
-        description=SIMULATE_HELP,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("file", metavar="FILE", help="motion: .csv (header row) or .npz")
-    p.add_argument("--units", action="append", metavar="COL=UNIT",
-                   help="units of columns without one in the header, e.g. x=mm")
-    _add_kind_options(p)
-    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
-                   help="model (default: the model of --params, else two-state with the "
-                        "paper's values); with --params it must be that model")
-    p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
-    p.add_argument("--stack-size", type=int, metavar="N",
-                   help="memory stack slots of a two-state model (default: the model's)")
-    _add_deadband_option(p, "the value saved in --params, else auto")
-    p.add_argument("--out", default="simulated.csv", help="CSV to write (default: %(default)s)")
-    p.add_argument("--quiet", action="store_true", help="print only errors")
-    _add_derivative_options(p, default=None)
-    p.set_defaults(func=_simulate)
+    _add_simulate(sub)
 
     p = sub.add_parser(
         "compare",
@@ -298,6 +281,39 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_simulate(sub) -> None:
+    """The ``simulate`` command's parser."""
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a model along a file's motion",
+        description=SIMULATE_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", metavar="FILE", nargs="+",
+                   help="motion: .csv (header row) or .npz; several files are simulated one "
+                        "by one into the --out folder")
+    p.add_argument("--units", action="append", metavar="COL=UNIT",
+                   help="units of columns without one in the header, e.g. x=mm")
+    _add_kind_options(p)
+    p.add_argument("--model", choices=["two-state", "two_state", "gms", "lugre", "tustin"],
+                   help="model (default: the model of --params, else two-state with the "
+                        "paper's values); with --params it must be that model")
+    p.add_argument("--params", metavar="JSON", help="parameters from 'jaxfric fit --json'")
+    p.add_argument("--stack-size", type=int, metavar="N",
+                   help="memory stack slots of a two-state model (default: the model's)")
+    _add_deadband_option(p, "the value saved in --params, else auto")
+    p.add_argument("--run", type=int, metavar="K",
+                   help="with --params from a fit to several files: the model of the K-th "
+                        "file, its per-run parameters included (default: their mean over "
+                        "the runs, the model for a run not fitted)")
+    p.add_argument("--out", help="CSV to write (default: simulated.csv); with several files "
+                                 "a folder (default: simulated/) that gets one CSV per file, "
+                                 "named as the file")
+    p.add_argument("--quiet", action="store_true", help="print only errors")
+    _add_derivative_options(p, default=None)
+    p.set_defaults(func=_simulate)
+
+
 def main(argv=None) -> int:
     """Run the ``jaxfric`` command with `argv` (default: the process's arguments); returns
     the exit code (0, also for a fit that did not converge: its status says so; 2 for bad
@@ -335,7 +351,7 @@ def main(argv=None) -> int:
 _OUTPUTS = {
     "demo": (("--out", "out", "folder"), ("--json", "json", "file")),
     "fit": (("--json", "json", "file"), ("--plot", "plot", "file")),
-    "simulate": (("--out", "out", "file"),),
+    "simulate": (("--out", "out", "file"), ("--out", "out_dir", "folder")),
     "compare": (("--json", "json", "file"),),
     "diagnose": (("--json", "json", "file"), ("--report", "report", "folder")),
     "export": (("--c", "c_dir", "folder"), ("--mujoco", "mujoco", "file")),
@@ -351,7 +367,7 @@ _FOLDER_FILES = {
 _INPUTS = {
     "demo": (),
     "fit": (("FILE", "files"), ("--validate", "validate"), ("--params", "params")),
-    "simulate": (("FILE", "file"), ("--params", "params")),
+    "simulate": (("FILE", "files"), ("--params", "params")),
     "compare": (("FILE", "files"), ("--validate", "validate")),
     "diagnose": (("FILE", "files"), ("--validate", "validate")),
     "export": (("RESULT.json", "result"),),
@@ -368,7 +384,8 @@ def _check_outputs(args) -> None:
         path = getattr(args, attr, None)
         if path:
             (check_file if kind == "file" else check_folder)(path, option)
-            outputs.append((option, path, () if kind == "file" else _FOLDER_FILES[attr]))
+            names = getattr(args, f"{attr}_files", None) or _FOLDER_FILES.get(attr)
+            outputs.append((option, path, () if kind == "file" else names))
     inputs = []
     for what, attr in _INPUTS[args.command]:
         value = getattr(args, attr, None)
@@ -383,4 +400,24 @@ def _several_files(args) -> None:
         return
     args.files = args.file
     args.file = args.files[0]
+    if args.command == "simulate":
+        _simulate_outputs(args)
+
+
+def _simulate_outputs(args) -> None:
+    """``simulate`` writes one file to ``--out``, or with several files one CSV per file
+    (named as the file) into the folder ``--out`` (``args.out_dir``, ``args.out_dir_files``)."""
+    from jaxfric.data import DataError
+
+    if len(args.files) == 1:
+        args.out = args.out or "simulated.csv"
+        return
+    names = [Path(f).stem + ".csv" for f in args.files]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise DataError(f"several files would be written to {', '.join(twice)} in the --out "
+                        "folder (files of the same name): rename or simulate them separately")
+    args.out_dir, args.out = args.out or "simulated", None
+    args.out_dir_names = names
+    args.out_dir_files = tuple(glob.escape(n) for n in names)  # as patterns, for the checks
 
