@@ -60,12 +60,24 @@ def default_props(model, free: Iterable[str] | None = None):
     ``alpha`` a `Sigmoid` on (0, 1), the GMS weights ``nu`` a `Simplex`, PowerShape's ``n``
     `Exp` above 1, unconstrained ones `Identity`. Every ``scale`` is left to the starting
     value. `free`: names (or groups declared on the fields: ``"stribeck"``, ``"shape"``) to
-    fit; ``None`` frees everything.
+    fit; ``None`` frees everything but a scalar ``per_run="relative"`` parameter (a drift's
+    starting level: in a fit of one run it cannot be told from the base friction, so it is
+    held; a fit to several runs makes it a vector, `fitting._per_run`, and frees it).
     """
     params, _ = parameters(model)
     infos = iter(parameter_info(model))
-    props = jax.tree.map(lambda _: ParamProps(_transform(next(infos).constraint)), params)
+
+    def props_of(leaf):
+        info = next(infos)
+        return ParamProps(_transform(info.constraint), free=not _held_relative(info, leaf))
+
+    props = jax.tree.map(props_of, params)
     return props if free is None else set_free(model, props, free)
+
+
+def _held_relative(info, leaf) -> bool:
+    """A ``per_run="relative"`` parameter of one run: held unless named in ``free=``."""
+    return info.per_run == "relative" and jnp.ndim(leaf) == 0
 
 
 def _is_props(node) -> bool:
@@ -293,6 +305,7 @@ def _natural_index(model):
     params, _ = parameters(model)
     leaves = jax.tree.leaves(params)
     items = sorted(((n, i) for i, n in enumerate(leaf_names(model))), key=_sort_key)
+    first = _first_numbers(model)
     names, index = [], []
     for name, i in items:
         size = int(np.prod(leaves[i].shape))
@@ -301,9 +314,15 @@ def _natural_index(model):
             index.append((i, None))
         else:
             for j in range(size):
-                names.append(f"{name}_{j + 1}")
+                names.append(f"{name}_{j + first[i]}")
                 index.append((i, j))
     return tuple(names), tuple(index)
+
+
+def _first_numbers(model) -> list[int]:
+    """The number of each leaf's first entry in its names: 1, or 2 for a
+    ``per_run="relative"`` vector (runs 2..D; run 1 is the reference, `fitting._per_run`)."""
+    return [2 if info.per_run == "relative" else 1 for info in parameter_info(model)]
 
 
 def natural_vector(model) -> Array:
@@ -340,9 +359,9 @@ def natural_units(model) -> dict[str, str]:
     units = {}
     infos = parameter_info(model)
     params, _ = parameters(model)
-    for info, leaf in zip(infos, jax.tree.leaves(params)):
+    for info, leaf, first in zip(infos, jax.tree.leaves(params), _first_numbers(model)):
         if leaf.shape == ():
             units[info.name] = info.unit
         else:
-            units.update({f"{info.name}_{j + 1}": info.unit for j in range(leaf.size)})
+            units.update({f"{info.name}_{j + first}": info.unit for j in range(leaf.size)})
     return {name: units[name] for name in natural_names(model)}

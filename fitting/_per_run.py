@@ -3,16 +3,20 @@
 An effect's parameter declared ``param(..., per_run=True)`` (`jaxfric._fields`; the offset
 of `jaxfric.effects.Offset`) belongs to one run, not to the machine: a sensor zero or a
 gravity compensation is set again for every run. `fitting.fit_datasets` then fits one value
-of it per run and shares every other parameter.
+of it per run and shares every other parameter. One declared ``per_run="relative"`` (the
+starting level of `jaxfric.effects.Drift`) cannot be told from the machine's parameters
+within one run, so run 1 is the reference, held at its value, and runs 2..D are fitted.
 
 **How.** The effect is wrapped in `_PerRunEffect`, whose per-run leaves carry one value per
 run (a vector leaf, so the result names them ``offset_1 .. offset_D`` in run order, with a
-standard error each). Which run a simulation is of is told by its first sample time
-(`jaxfric.effects.Signals.t0`): the fit shifts run ``i``'s time axis to start at ``i``
-seconds (`shifted`), which changes nothing else, since every model and effect reads time
-only through its steps and its distance from the first sample. The plain model of one run
-is `run_model`; `mean_model` is the model for a run not fitted (each per-run value at its
-mean over the runs).
+standard error each); a relative leaf carries the values of runs 2..D only
+(``drift_level_2 .. drift_level_D``), run 1's being static (`_PerRunEffect.reference`), so
+no per-element free mask is needed. Which run a simulation is of is told by its first
+sample time (`jaxfric.effects.Signals.t0`): the fit shifts run ``i``'s time axis to start
+at ``i`` seconds (`shifted`), which changes nothing else, since every model and effect reads
+time only through its steps and its distance from the first sample. The plain model of one
+run is `run_model`; `mean_model` is the model for a run not fitted (each per-run value at
+its mean over the runs).
 """
 
 import dataclasses
@@ -31,22 +35,38 @@ def per_run_fields(effect) -> tuple[str, ...]:
 
 
 class _PerRunEffect(AbstractEffect):
-    """`effect` with its `fields` holding one value per run (leading axis); the run of a
-    simulation is the number of `starts` (after the first) at or before its first sample."""
+    """`effect` with its `fields` holding one value per run (leading axis), those also in
+    `relative` the values of runs 2..D (run 1's is `reference`, in `relative`'s order); the
+    run of a simulation is the number of `starts` (after the first) at or before its first
+    sample."""
 
     effect: AbstractEffect
     fields: tuple[str, ...] = eqx.field(static=True)
     starts: tuple[float, ...] = eqx.field(static=True)
+    relative: tuple[str, ...] = eqx.field(static=True, default=())
+    reference: tuple[float, ...] = eqx.field(static=True, default=())
 
     @property
     def name(self) -> str:  # the wrapped effect's: results and terms keep its name
         return self.effect.name
 
-    def of_run(self, k) -> AbstractEffect:
-        """The plain effect of run `k` (an int or a traced index)."""
-        values = [getattr(self.effect, f)[k] for f in self.fields]
+    def values(self, field: str):
+        """Every run's value of per-run `field` (run 1's reference prepended for a
+        relative one)."""
+        stored = getattr(self.effect, field)
+        if field not in self.relative:
+            return stored
+        ref = jnp.asarray(self.reference[self.relative.index(field)], stored.dtype)
+        return jnp.concatenate([ref[None], stored])
+
+    def with_values(self, values: list):
+        """The plain effect with `fields` set to `values` (one scalar each)."""
         return eqx.tree_at(lambda e: [getattr(e, f) for f in self.fields], self.effect,
                            values)
+
+    def of_run(self, k) -> AbstractEffect:
+        """The plain effect of run `k` (an int or a traced index)."""
+        return self.with_values([self.values(f)[k] for f in self.fields])
 
     def term(self, s):
         k = jnp.sum(s.t0 >= jnp.asarray(self.starts[1:]))
@@ -75,9 +95,12 @@ def with_runs(model, runs: int):
         for f in fields:
             if jnp.ndim(getattr(e, f)) != 0:
                 raise ValueError(f"{e.name}: per-run parameter {f!r} must be a scalar")
+        relative = tuple(f.name for f in dataclasses.fields(e)
+                         if f.metadata.get("per_run") == "relative")
         rep = eqx.tree_at(lambda x: [getattr(x, f) for f in fields], e,
-                          [jnp.full(runs, getattr(e, f)) for f in fields])
-        return _PerRunEffect(rep, fields, starts)
+                          [jnp.full(runs - (f in relative), getattr(e, f)) for f in fields])
+        return _PerRunEffect(rep, fields, starts, relative,
+                             tuple(float(getattr(e, f)) for f in relative))
 
     return WithEffects(model.base, tuple(wrap(e) for e in model.effects))
 
@@ -99,8 +122,7 @@ def mean_effect(e):
     fitted); any other effect unchanged."""
     if not isinstance(e, _PerRunEffect):
         return e
-    return eqx.tree_at(lambda x: [getattr(x, f) for f in e.fields], e.effect,
-                       [jnp.mean(getattr(e.effect, f)) for f in e.fields])
+    return e.with_values([jnp.mean(e.values(f)) for f in e.fields])
 
 
 def run_model(model, k: int | None, among=None):
@@ -117,8 +139,7 @@ def run_model(model, k: int | None, among=None):
         if k is not None:
             return e.of_run(k)
         pick = slice(None) if among is None else np.asarray(list(among), int)
-        means = [jnp.mean(getattr(e.effect, f)[pick]) for f in e.fields]
-        return eqx.tree_at(lambda x: [getattr(x, f) for f in e.fields], e.effect, means)
+        return e.with_values([jnp.mean(e.values(f)[pick]) for f in e.fields])
 
     return WithEffects(model.base, tuple(plain(e) for e in model.effects))
 
@@ -132,7 +153,7 @@ def per_run_values(model) -> list[dict[str, float]]:
     for e in model.effects:
         if isinstance(e, _PerRunEffect):
             for f in e.fields:
-                values = np.asarray(getattr(e.effect, f))
+                values = np.asarray(e.values(f))
                 out += [{} for _ in range(len(values) - len(out))]
                 for i, val in enumerate(values):
                     out[i][f] = float(val)

@@ -143,7 +143,8 @@ class Fitter:
 
     def props(self, model, on: frozenset):
         """Free: the base model's leaves (but `fixed`) and those of the effects in `on`
-        (indices into ``model.effects``); an effect's linear leaves on an `Identity`."""
+        (indices into ``model.effects``); an effect's linear leaves on an `Identity`. A
+        leaf `default_props` holds (a drift's level in a fit of one run) stays held."""
         fit_model = _params.to_fit_representation(model)
         effects = getattr(fit_model, "effects", ())
         plain = fit_model.without_effects() if effects else fit_model
@@ -155,7 +156,8 @@ class Fitter:
         linear = [o >= 0 and info.name in _linear(effects[o]) for o, info in zip(owner, infos)]
         props = _params.props_leaves(_params.default_props(fit_model))
         leaves = [ParamProps(Identity() if lin else p.transform,
-                             free=(o < 0 and info.name not in self.fixed) or o in on)
+                             free=p.free and ((o < 0 and info.name not in self.fixed)
+                                              or o in on))
                   for p, o, lin, info in zip(props, owner, linear, infos)]
         tree = jax.tree.structure(_params.default_props(fit_model),
                                   is_leaf=_params._is_props)

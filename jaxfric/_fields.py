@@ -29,7 +29,7 @@ _MISSING = dataclasses.MISSING
 
 def param(unit: str, *, constraint: Any = None, group: str | None = None,
           role: str | None = None, default: Any = _MISSING, linear: bool = False,
-          physical: tuple[float, float] | None = None, per_run: bool = False) -> Any:
+          physical: tuple[float, float] | None = None, per_run: bool | str = False) -> Any:
     """A parameter field (an `equinox.field` with the `as_param` converter): `unit` is its
     SI unit as text (``"N"``, ``"m/s"``, ``"N s/m"``, ``"-"`` for none), `constraint` one of
     the module docstring's, `group` a name that ``free=`` accepts for several parameters
@@ -41,7 +41,11 @@ def param(unit: str, *, constraint: Any = None, group: str | None = None,
     is not negative), checked after the fit rather than imposed by a transform.
     `per_run`: a nuisance parameter that belongs to one run rather than to the machine (a
     sensor zero, a gravity-compensation offset): a fit to several runs
-    (`fitting.fit_datasets`) gives it one value per run and shares every other parameter."""
+    (`fitting.fit_datasets`) gives it one value per run and shares every other parameter.
+    ``per_run="relative"``: a per-run value that one run cannot tell from the machine's
+    parameters (a drift's starting level against the base friction), so it is relative to
+    the first run: held at its value in a fit of one run and for run 1, free for runs
+    2..D."""
     metadata = {"unit": unit, "constraint": constraint, "group": group, "role": role,
                 "linear": linear, "physical": physical, "per_run": per_run}
     if default is _MISSING:
@@ -57,7 +61,7 @@ class ParamInfo(NamedTuple):
     constraint: Any
     group: str | None
     role: str | None
-    per_run: bool = False
+    per_run: bool | str = False
 
 
 def _key_name(key) -> str:

@@ -19,7 +19,7 @@ Memoryless effects:
 | `cogging` | ``cog_sin sin(2 pi x/P) + cog_cos cos(...)`` | cog_sin N, cog_cos N, P m |
 | `position_dependence` | ``F_base * (pos_1 u + pos_2 u^2)`` | pos_1, pos_2 (1) |
 | `position_load` | ``load_1 u + load_2 (u^2 - 1/3)`` | load_1 N, load_2 N |
-| `drift` | ``F_base * drift_rate * (t - t_0)`` | drift_rate 1/s |
+| `drift` | ``F_base * (drift_level + drift_rate * (t - t_0))`` | drift_rate 1/s, drift_level (1) |
 | `ripple` | ``sum_k rip_sin_k sin(2 pi k x/P) + rip_cos_k cos(...)`` | rip_sin, rip_cos N, P m |
 | `angle_load` | ``g_sin sin(x) + g_cos cos(x)`` (x an angle, rad) | g_sin N, g_cos N |
 | `load_friction` | ``k_load * abs(L) * clip(F_base / abs(s(v)), -1, 1)`` | k_load (1) |
@@ -351,16 +351,20 @@ class LoadFriction(AbstractEffect):
 
 
 class Drift(AbstractEffect):
-    """``F_base * drift_rate * (t - t0) * phi(drift_decay * (t - t0))`` with
+    """``F_base * (drift_level + drift_rate * (t - t0) * phi(drift_decay * (t - t0)))`` with
     ``phi(u) = (1 - exp(-u)) / u`` (``phi(0) = 1``): the friction level changing slowly over
     time, 1/s. With ``drift_decay = 0`` (the default) the change is linear (wear); with
     ``drift_decay = 1/tau > 0`` it starts at `drift_rate` and settles at
     ``drift_rate * tau`` with time constant ``tau`` (a warm-up). A negative decay is an
-    accelerating change."""
+    accelerating change. `drift_level` (a fraction of ``F_base``) is where the level starts
+    in a run (its thermal state, the wear since the last run): one run cannot tell it from
+    the base friction, so it is per run relative to the first (``per_run="relative"``,
+    `jaxfric._fields.param`): 0 in a fit of one run and for run 1 of several."""
 
     name: ClassVar[str] = "drift"
     drift_rate: Array = param("1/s", default=0.0, linear=True)
     drift_decay: Array = param("1/s", default=0.0)
+    drift_level: Array = param("-", default=0.0, physical=(-1.0, 1.0), per_run="relative")
 
     @classmethod
     def grid(cls, t, x, v, F):
@@ -371,18 +375,22 @@ class Drift(AbstractEffect):
 
     def term(self, s):
         elapsed = s.t - s.t0
-        return s.base * self.drift_rate * elapsed * _settling(self.drift_decay * elapsed)
+        return s.base * (self.drift_level
+                         + self.drift_rate * elapsed * _settling(self.drift_decay * elapsed))
 
     def describe(self):
         rate = f"{100 * float(self.drift_rate) * 60:+.3g} % per minute"
+        level = float(self.drift_level)
+        start = f" from {100 * level:+.3g} %" if level != 0 else ""
         decay = float(self.drift_decay)
         if decay == 0:
-            return f"friction level drifts by {rate}"
+            return f"friction level drifts{start} by {rate}"
         if decay > 0:
-            return (f"friction level drifts by {rate} at first and settles "
+            return (f"friction level drifts{start} by {rate} at first and settles "
                     f"{100 * float(self.drift_rate) / decay:+.3g} % away with time "
                     f"constant {1 / decay:.3g} s (a warm-up)")
-        return f"friction level drifts by {rate} at first, faster with time ({1 / -decay:.3g} s)"
+        return (f"friction level drifts{start} by {rate} at first, faster with time "
+                f"({1 / -decay:.3g} s)")
 
 
 def _settling(u: Array) -> Array:

@@ -91,10 +91,11 @@ def _position_load(e):
 
 
 def _drift(e):
-    return Part(consts=[_c(e, "drift_rate"), _c(e, "drift_decay")], step=(
+    return Part(consts=[_c(e, "drift_rate"), _c(e, "drift_decay"), _c(e, "drift_level")],
+                step=(
         "    { double el = t - s->t0, u = JF_DRIFT_DECAY * el;\n"
         "      double phi = fabs(u) < 1e-4 ? 1.0 - u / 2.0 + u * u / 6.0 : -expm1(-u) / u;\n"
-        "      total += f * JF_DRIFT_RATE * el * phi; }\n"))
+        "      total += f * (JF_DRIFT_LEVEL + JF_DRIFT_RATE * el * phi); }\n"))
 
 
 def _presliding(e):
@@ -148,6 +149,12 @@ def reads_load(effects) -> bool:
 def effect_part(effect) -> Part:
     """The `Part` adding `effect`'s term to ``total``; `ExportError` if it has none."""
     translate = _TRANSLATORS.get(type(effect))
+    if translate is None and hasattr(effect, "of_run"):  # `fitting._per_run._PerRunEffect`
+        raise ExportError(
+            f"the effect '{effect.name}' has one value per run (a fit to several runs): "
+            "export one run's model, fitting.run_model(model, i), or the model for a run not "
+            "fitted, fitting.run_model(model, None) (per-run values at their mean; what "
+            "`jaxfric export` writes from a result's JSON)")
     if translate is None:
         name = getattr(effect, "name", type(effect).__name__)
         raise ExportError(f"the effect '{name}' ({type(effect).__name__}) cannot be exported "
