@@ -164,8 +164,9 @@ class Fitter:
         return fit_model, jax.tree.unflatten(tree, leaves)
 
     def n_free(self, model, on: frozenset) -> int:
-        """The number of free coordinates of `model` with the effects in `on` switched on."""
-        fit_model, props = self.props(model, on)
+        """The number of free coordinates of `model` with the effects in `on` switched on
+        (a per-run parameter counted once per run it is fitted for, as `fit` fits it)."""
+        fit_model, props = self.props(with_runs(model, self.data.n_runs), on)
         sizes = [int(np.size(leaf)) for leaf in jax.tree.leaves(
             eqx.filter(fit_model, eqx.is_inexact_array))]
         return sum(n for n, p in zip(sizes, _params.props_leaves(props)) if p.free)

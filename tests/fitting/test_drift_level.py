@@ -147,3 +147,55 @@ def test_export_is_of_one_run_or_the_mean_model(two_runs, tmp_path):
     want = np.asarray(jaxfric.simulate(mean, d.t, d.x, v))
     np.testing.assert_allclose(compiled.run(d.t, d.x, v), want, rtol=0,
                                atol=1e-9 * np.max(np.abs(want)))
+
+
+def _three_runs(seconds=20.0):
+    """Three runs of a small Tustin stage with one drift rate and three starting levels."""
+    model = jaxfric.Tustin(jaxfric.Stribeck(Fs=2.0, Fc=1.5, Vs=0.05, delta=2.0), sigma2=1.0)
+    runs = []
+    for i, level in enumerate((0.0, 0.05, -0.03)):
+        t = np.arange(0.0, seconds, 1e-2)
+        x = (1 + 0.2 * i) * np.sin(2 * np.pi * t / 2.0)
+        v = np.gradient(x, t)
+        F = np.asarray(jaxfric.simulate(
+            model + effects.Drift(drift_rate=2e-3, drift_level=level), t, x, v))
+        runs.append(fitting.Dataset(
+            t=t, x=x, v=v, F=F + 0.01 * np.random.default_rng(i).normal(size=t.size)))
+    return model, runs
+
+
+def test_diagnosis_fitter_frees_the_levels_of_runs_2_to_d_when_drift_is_on():
+    """The diagnosis's fits (`fitting._select.Fitter`): the drift slot off holds every
+    drift parameter; on, it fits the rate and the levels of runs 2 and 3 (counted as two
+    free coordinates); the screening start (`start_effect`) leaves the level at 0."""
+    from fitting import _select as S
+    from fitting._candidates import start_effect
+    from fitting._diagnose import _records
+
+    model, runs = _three_runs(seconds=10.0)
+    data, _ = _records(runs, "central", None)
+    fitter = S.Fitter(data, max_steps=100)
+    start = fitting.to_fit_representation(model + effects.Drift())
+    assert fitter.n_free(start, frozenset({0})) - fitter.n_free(start, frozenset()) == 2 + 2
+    off, _ = fitter.fit(start, frozenset())
+    assert np.all(np.asarray(off.effects[0].effect.drift_level) == 0.0)
+    resid = data.F - data.simulate(off)
+    e = start_effect("drift", data, off.without_effects(), resid)
+    assert float(e.drift_level) == 0.0 and float(e.drift_rate) > 0
+    on, pred = fitter.fit(eqx.tree_at(lambda m: m.effects[0], off, e), frozenset({0}))
+    np.testing.assert_allclose(np.asarray(on.effects[0].effect.drift_level), [0.05, -0.03],
+                               atol=2e-3)
+    assert np.sqrt(np.mean((pred - data.F) ** 2)) < 0.012
+
+
+@pytest.mark.slow
+def test_diagnosis_of_three_runs_adds_a_drift_with_a_level_per_run():
+    model, runs = _three_runs()
+    d = fitting.diagnose(model, runs, effects=["drift", "offset"], base_models=())
+    assert d.folds == "runs" and d.final.added == ["drift"]
+    levels = [float(d.final.fit.params[f"drift_level_{i}"]) for i in (2, 3)]
+    np.testing.assert_allclose(levels, [0.05, -0.03], atol=2e-3)
+    assert [r["params"]["drift_level"] for r in d.runs] == [0.0, *levels]
+    assert float(d.model.effects[0].drift_level) == pytest.approx(np.mean([0.0, *levels]))
+    for row in d.runs:  # each run's held-out error falls with the drift
+        assert row["rmse_holdout"][-1] < row["rmse_holdout"][0]
