@@ -135,6 +135,39 @@ def test_per_run_offsets_through_the_command_line(files, run, tmp_path):
             r["params"]["offset"])
 
 
+def test_drift_levels_per_run_through_the_command_line(files, run, tmp_path):
+    """A drift whose starting level differs between two runs: the JSON names the level of
+    run 2 (run 1 is the reference, 0) with its standard error, gives each run's level and
+    model, and saves the model for a run not fitted (the mean level), which `export`
+    writes as C."""
+    paths = []
+    for i, level in enumerate((0.0, 0.04)):
+        m = jaxfric.data.load(files[i])
+        F = np.asarray(jaxfric.simulate(
+            TRUTH + effects.Drift(drift_rate=1e-3, drift_level=level), m.t, m.x))
+        F = F + 0.02 * np.random.default_rng(20 + i).normal(size=F.size)
+        v = np.asarray(jaxfric.motion.velocity(m.t, m.x))
+        paths.append(_write(tmp_path / f"drift{i}.csv", "t,x,v,F", [m.t, m.x, v, F]))
+    start = tmp_path / "start.json"
+    jaxfric.save_model(TRUTH + effects.Drift(), start)
+    out = tmp_path / "fit.json"
+    rc, text, err = run("fit", *paths, "--params", start, "--json", out)
+    assert rc == 0, err
+    saved = json.loads(out.read_text())
+    level, error = saved["params"]["drift_level_2"], saved["stderr"]["drift_level_2"]
+    assert 0 < error < 1e-3 and abs(level - 0.04) <= 3 * error
+    assert "drift_level_1" not in saved["params"] and "per-run parameters" in text
+    assert [r["params"]["drift_level"] for r in saved["runs"]] == [0.0, level]
+    for r in saved["runs"]:
+        assert float(jaxfric.load_model(r["fitted_model"]).effects[0].drift_level) == (
+            r["params"]["drift_level"])
+    mean = jaxfric.load_model(saved["fitted_model"])
+    np.testing.assert_allclose(float(mean.effects[0].drift_level), level / 2, rtol=1e-12)
+    rc, _, err = run("export", out, "--c", tmp_path / "c")
+    assert rc == 0, err
+    assert "JF_DRIFT_LEVEL" in (tmp_path / "c" / "jaxfric_model.c").read_text()
+
+
 def test_compare_several_runs_with_validation(files, run, tmp_path):
     out = tmp_path / "cmp.json"
     rc, text, err = run("compare", files[0], files[1], "--validate", files[2],
