@@ -77,16 +77,28 @@ def test_several_files_fit_as_python_fit_datasets(files, fitted):
     res = fitting.fit_datasets(start, runs, max_steps=200)
     assert saved["files"] == [str(f) for f in files[:2]]
     assert saved["samples"] == sum(r.t.size for r in runs)
-    # The same fit, to the solver's stopping rule: two runs of this test have differed in
-    # Fc by 1.5e-4 relative (0.007 of its standard error, one step more), not in bits.
+    # The same fit to the solver's stopping rule, not in bits (XLA on several threads,
+    # docs/fitting.md): a fit stopped by the statistical rule (fitting._stopping) is within
+    # sqrt(2 decrease) standard errors of the optimum in every parameter and within
+    # `decrease` noise variances of its cost, so two differ by at most twice that in a
+    # parameter and by decrease/N of the RMSE (a run's own RMSE, first order in the
+    # parameters, by about sqrt(p) 0.28 s^2: under 2/N_run). A parameter the data do not
+    # determine (held at its start, no standard error) is not compared, only found in both.
+    for why in (res.stopped, saved["stopped"]):
+        assert "nothing the data can tell is left" in why, why
+    n = sum(r.t.size for r in runs)
+    decrease = fitting.Tolerances().decrease
+    bound = 2 * np.sqrt(2 * decrease)
+    assert set(saved["undetermined"]) == set(res.undetermined)
     for name, value in res.params.items():
-        err = res.stderr[name]
-        tol = 0.05 * float(err) if np.isfinite(err) and err > 0 else 1e-6 * abs(float(value))
-        assert abs(saved["params"][name] - float(value)) <= tol, name
-    np.testing.assert_allclose(saved["rmse"], float(res.rmse), rtol=1e-6)
+        err = float(res.stderr[name])
+        if name in res.undetermined:
+            continue
+        assert abs(saved["params"][name] - float(value)) <= bound * err, name
+    np.testing.assert_allclose(saved["rmse"], float(res.rmse), rtol=decrease / n)
     for row, r in zip(saved["runs"], res.residuals):
         np.testing.assert_allclose(row["rmse"], np.sqrt(np.mean(np.asarray(r) ** 2)),
-                                   rtol=1e-6)
+                                   rtol=2 / r.size)
 
 
 def test_validation_error_is_a_separate_simulate_of_the_saved_model(files, fitted, run,
