@@ -128,7 +128,10 @@ def fit_datasets(
     `jaxfric.effects.Offset`) get one value per dataset when there are two or more
     (`fitting._per_run`): ``params`` names them ``offset_1 .. offset_D`` in dataset order,
     `fitting.run_model` gives the plain model of one dataset (and, with ``None``, the mean
-    model for data not fitted); every other parameter is shared.
+    model for data not fitted); every other parameter is shared. One declared
+    ``per_run="relative"`` (`jaxfric.effects.Drift`'s ``drift_level``) keeps dataset 1's
+    value and is fitted for the others (``drift_level_2 .. drift_level_D``); with one
+    dataset it is held.
     """
     if len(datasets) == 0:
         raise ValueError("need at least one dataset")
