@@ -9,6 +9,11 @@ region update). The acceleration must equal its formula where the finite differe
 exact (a quadratic residual), and is left out where it is not small against the step.
 """
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
@@ -78,3 +83,19 @@ def test_the_acceleration_is_its_formula_on_a_quadratic_residual():
                                    jnp.asarray(step_size), state)
         np.testing.assert_allclose(np.asarray(got), 0.5 * expected if small else 0.0,
                                    rtol=1e-6, atol=1e-12)
+
+
+def test_the_comparison_script_runs_and_writes_json(tmp_path):
+    """benchmarks/geodesic_steps.py as a user runs it, on one short cell (a smoke test: its
+    timings are not checked)."""
+    root = Path(__file__).resolve().parents[2]
+    out = tmp_path / "geodesic.json"
+    run = subprocess.run([sys.executable, str(root / "benchmarks" / "geodesic_steps.py"),
+                          "--models", "tustin", "--motions", "p2p", "--sizes", "2000",
+                          "--repeats", "1", "--json", str(out)],
+                         capture_output=True, text=True, timeout=900, cwd=root)
+    assert run.returncode == 0, run.stdout + run.stderr
+    data = json.loads(out.read_text())
+    (cell,) = data["cells"]
+    assert cell["default"]["steps"] > 0 and cell["geodesic"]["steps"] > 0
+    assert f"tustin | p2p | 2e+03 | {cell['default']['steps']} |" in run.stdout
