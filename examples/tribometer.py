@@ -24,7 +24,8 @@ Tustin, each with `fitting.fit` (Levenberg-Marquardt) from a start scaled to the
 (`scales`, `start_models`). The presliding fits are multimodal (GMS most of all: from the
 estimated ``l1``, GMS-10 can end 25 % above what it reaches from half or twice that), so
 the models whose start depends on ``l1`` (two-state, GMS) are fitted from ``l1`` times
-each of `L1_FACTORS` and the best fit on the fit samples is kept. Only the parameters
+each of `L1_FACTORS` and the fit with the lowest (weighted) sum of squares on the fit
+samples, the cost the solver minimises, is kept. Only the parameters
 these data determine are fitted (`FREE`); the others are held, for reasons found by
 fitting them:
 
@@ -316,7 +317,11 @@ def fit_models(record: Record, *, models=MODELS, quick: bool = False, max_steps:
             model0 = start_models(dataclasses.replace(sc, l1=sc.l1 * factor))[name]
             res = fit(model0, t[index], x[index], f_kept, free=FREE[name], weights=weights,
                       max_steps=max_steps)
-            tried.append((float(res.rmse), factor, res))
+            # Ranked by the weighted sum of squares the fit minimises (the full-rate one
+            # when thinned: `thin`), not by the plain RMSE of the thinned samples, which
+            # can favour a fit the solver itself rates worse.
+            cost = float(np.sum(np.asarray(weights) * np.asarray(res.residuals) ** 2))
+            tried.append((cost, factor, res))
         _, l1_factor, res = min(tried, key=lambda item: item[0])
         seconds = time.perf_counter() - start
         sim = jaxfric.simulate(res.model, t, x, full_output=True)

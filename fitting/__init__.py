@@ -124,7 +124,7 @@ from ._per_run import run_model as run_model
 from ._regimes import regime_errors as regime_errors, regimes as regimes
 from ._result import FitResult as FitResult
 from ._rules import DiagnosisRules as DiagnosisRules
-from ._solve import default_solver as default_solver
+from ._solve import default_solver as default_solver, geodesic_solver as geodesic_solver
 from ._staged import (
     constant_velocity_segments as constant_velocity_segments,
     fit_staged as fit_staged,

@@ -1,7 +1,8 @@
 """Least-squares fits of any jaxfric model to measured ``(t, x, F)``.
 
-**Solver.** optimistix's Levenberg-Marquardt by default (`fitting._solve.default_solver`),
-because:
+**Solver.** Levenberg-Marquardt by default (`fitting._solve.default_solver`: optimistix's,
+with MINPACK's trust-region update; `fitting._solve.geodesic_solver` adds geodesic
+acceleration, `fitting._geodesic`), because:
 
 - the problem is a nonlinear least-squares problem with many more samples than parameters
   (thousands against 5-25), so a Gauss-Newton method that uses ``J^T J`` as its curvature
@@ -13,7 +14,10 @@ because:
   damping ``lambda*I`` (a trust region) keeps the steps bounded and still reduces to
   Gauss-Newton near the optimum;
 - the damped step is solved by QR of ``[J; sqrt(lambda) I]`` (optimistix's default), which
-  does not square the condition number the way the normal equations would.
+  does not square the condition number the way the normal equations would;
+- in the curved valleys these models have (the presliding shape, Fc ~ Vs), geodesic
+  acceleration, one more residual evaluation per step, keeps long steps on the valley's
+  floor (an option: it saves steps there and costs time per step everywhere).
 
 `optimistix.Dogleg` or `optimistix.IndirectLevenbergMarquardt` can be passed as ``solver``
 instead; any optimistix minimiser also works (it minimises the sum of squares).
