@@ -22,6 +22,7 @@ from jaxfric import NormalizedPaperShape
 from jaxfric._compile import jit
 from jaxfric._fields import parameter_info
 
+from ._per_run import run_numbers
 from ._transforms import AbstractTransform, Exp, Identity, ParamProps, Sigmoid, Simplex
 
 
@@ -305,7 +306,7 @@ def _natural_index(model):
     params, _ = parameters(model)
     leaves = jax.tree.leaves(params)
     items = sorted(((n, i) for i, n in enumerate(leaf_names(model))), key=_sort_key)
-    first = _first_numbers(model)
+    numbers = _entry_numbers(model)
     names, index = [], []
     for name, i in items:
         size = int(np.prod(leaves[i].shape))
@@ -314,15 +315,18 @@ def _natural_index(model):
             index.append((i, None))
         else:
             for j in range(size):
-                names.append(f"{name}_{j + first[i]}")
+                names.append(f"{name}_{numbers[i][j]}")
                 index.append((i, j))
     return tuple(names), tuple(index)
 
 
-def _first_numbers(model) -> list[int]:
-    """The number of each leaf's first entry in its names: 1, or 2 for a
-    ``per_run="relative"`` vector (runs 2..D; run 1 is the reference, `fitting._per_run`)."""
-    return [2 if info.per_run == "relative" else 1 for info in parameter_info(model)]
+def _entry_numbers(model) -> list:
+    """The numbers of each leaf's entries in their names: 1..N, or for a per-run leaf the
+    runs it stores (`fitting._per_run.run_numbers`: a relative one skips its reference
+    run, run 1 in a fit of every run)."""
+    params, _ = parameters(model)
+    return [range(1, int(np.size(leaf)) + 1) if runs is None else runs
+            for runs, leaf in zip(run_numbers(model), jax.tree.leaves(params))]
 
 
 def natural_vector(model) -> Array:
@@ -359,9 +363,9 @@ def natural_units(model) -> dict[str, str]:
     units = {}
     infos = parameter_info(model)
     params, _ = parameters(model)
-    for info, leaf, first in zip(infos, jax.tree.leaves(params), _first_numbers(model)):
+    for info, leaf, numbers in zip(infos, jax.tree.leaves(params), _entry_numbers(model)):
         if leaf.shape == ():
             units[info.name] = info.unit
         else:
-            units.update({f"{info.name}_{j + first}": info.unit for j in range(leaf.size)})
+            units.update({f"{info.name}_{n}": info.unit for n in numbers})
     return {name: units[name] for name in natural_names(model)}

@@ -178,11 +178,11 @@ class Fitter:
         its per-run parameters at their mean over the runs fitted (`Data.simulate`)."""
         d = self.data
         runs = d.runs()
-        model = with_runs(model, len(runs))
-        fit_model, props = self.props(model, on)
         w = ([None] * len(runs) if weights is None else
              [np.asarray(weights, float)[sl] for sl in d.slices()])
         fitted = [i for i, wi in enumerate(w) if wi is None or np.any(wi > 0)]
+        model = with_runs(model, len(runs), reference=fitted[0])  # a level's reference
+        fit_model, props = self.props(model, on)
         sets = [Dataset(t=runs[i].t, x=runs[i].x, F=runs[i].F, v=runs[i].v, a=runs[i].a,
                         load=runs[i].load, weights=w[i]) for i in fitted]
         res = fit_datasets(fit_model, shifted(sets, fitted) if len(runs) > 1 else sets,
