@@ -13,8 +13,9 @@ fitted runs' levels would be the base friction's scale, and the fit ill-posed).
 **How.** The effect is wrapped in `_PerRunEffect`, whose per-run leaves carry one value per
 run (a vector leaf, so the result names them ``offset_1 .. offset_D`` in run order, with a
 standard error each); a relative leaf carries the values of every run but the reference
-run's (``drift_level_2 .. drift_level_D`` with run 1 the reference), that one being static
-(`_PerRunEffect.reference`), so no per-element free mask is needed. `rereferenced` moves the
+run's (``drift_level_2 .. drift_level_D`` with run 1 the reference; the names skip the
+reference run, `run_numbers`), that one being static (`_PerRunEffect.reference`), so no
+per-element free mask is needed. `rereferenced` moves the
 reference to another run and keeps every run's model (a warm start from a fit of every
 run into a fold without run 1). Which run a simulation is of is told by its first
 sample time (`jaxfric.effects.Signals.t0`): the fit shifts run ``i``'s time axis to start

@@ -7,6 +7,7 @@ runs' levels confounded with the base friction's scale); re-referencing a wrappe
 import re
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -14,8 +15,9 @@ import pytest
 import fitting
 import jaxfric
 from fitting import _select as S
-from fitting._per_run import per_run_values, rereferenced, run_model, with_runs
+from fitting._per_run import per_run_values, rereferenced, run_model, shifted, with_runs
 from jaxfric import effects
+from jaxfric._compile import jit
 
 
 BASE = jaxfric.Tustin(jaxfric.Stribeck(Fs=2.0, Fc=1.5, Vs=0.05, delta=2.0), sigma2=1.0)
@@ -142,3 +144,37 @@ def test_with_runs_reference_and_names():
     assert with_runs(model, 2).effects[0] is drift
     with pytest.raises(ValueError, match=r"3 runs.*4"):
         with_runs(model, 4, reference=0)
+
+
+def test_gradient_with_run_2_the_reference_against_finite_differences():
+    """The stored levels of runs 1 and 3 (run 2 the reference) move runs 1 and 3 only."""
+    runs = shifted([fitting.Dataset(t=d.t[:300], x=d.x[:300], v=d.v[:300], F=d.F[:300])
+                    for d in _three_runs()])
+    model = with_runs(BASE + effects.Drift(drift_rate=RATE, drift_level=0.05), 3,
+                      reference=1)
+    model = eqx.tree_at(lambda m: m.effects[0].effect.drift_level, model,
+                        jnp.asarray([0.01, -0.02]))
+
+    def level(m):
+        return m.effects[0].effect.drift_level
+
+    def loss(m, only=(0, 1, 2)):
+        return sum(jnp.sum((jaxfric.simulate(m, d.t, d.x, d.v) - d.F) ** 2)
+                   for i, d in enumerate(runs) if i in only)
+
+    grad = np.asarray(level(jit(jax.grad(loss))(model)))
+    loss_j = jit(loss)
+    h = 1e-6
+    for j in range(2):
+        up = eqx.tree_at(level, model, level(model).at[j].add(h))
+        down = eqx.tree_at(level, model, level(model).at[j].add(-h))
+        fd = (loss_j(up) - loss_j(down)) / (2 * h)
+        np.testing.assert_allclose(grad[j], float(fd), rtol=1e-6)
+    # entry 0 is run 1's, entry 1 run 3's: each moves its own run's loss only
+    def of_run(i):
+        return np.asarray(level(jit(jax.grad(lambda m: loss(m, (i,))))(model)))
+
+    np.testing.assert_array_equal(of_run(1), [0.0, 0.0])  # run 2, the reference
+    g1, g3 = of_run(0), of_run(2)
+    assert g1[1] == 0.0 and g3[0] == 0.0 and g1[0] != 0.0 and g3[1] != 0.0
+    np.testing.assert_allclose(grad, g1 + g3, rtol=1e-12)
