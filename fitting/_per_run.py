@@ -15,14 +15,13 @@ run (a vector leaf, so the result names them ``offset_1 .. offset_D`` in run ord
 standard error each); a relative leaf carries the values of every run but the reference
 run's (``drift_level_2 .. drift_level_D`` with run 1 the reference; the names skip the
 reference run, `run_numbers`), that one being static (`_PerRunEffect.reference`), so no
-per-element free mask is needed. `rereferenced` moves the
-reference to another run and keeps every run's model (a warm start from a fit of every
-run into a fold without run 1). Which run a simulation is of is told by its first
-sample time (`jaxfric.effects.Signals.t0`): the fit shifts run ``i``'s time axis to start
-at ``i`` seconds (`shifted`), which changes nothing else, since every model and effect reads
-time only through its steps and its distance from the first sample. The plain model of one
-run is `run_model`; `mean_model` is the model for a run not fitted (each per-run value at
-its mean over the runs).
+per-element free mask is needed. `rereferenced` moves the reference to another run and
+keeps every run's model (a warm start from a fit of every run into a fold without run 1).
+Which run a simulation is of is told by its first sample time (`jaxfric.effects.Signals.t0`):
+the fit shifts run ``i``'s time axis to start at ``i`` seconds (`shifted`), which changes
+nothing else, since every model and effect reads time only through its steps and its
+distance from the first sample. The plain model of one run is `run_model`; `mean_model` is
+the model for a run not fitted (each per-run value at its mean over the runs).
 """
 
 import dataclasses
