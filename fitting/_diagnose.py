@@ -244,7 +244,9 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (no more than fitting noise removes, 2 q s^2)")
            + (f"; not physical: {o.physical}" if o.physical else "")
-           + (f"; not converged (no evidence): {o.unconverged}" if o.unconverged else ""))
+           + (f"; not converged: {o.unconverged}" if o.unconverged else "")
+           + (f"; judged where its fold fits stopped at their step limit ({o.cut})"
+              if o.cut else ""))
     if effect is not None:
         why = f"{effect.describe()}; {why}"
     return Candidate(name=o.name, effect=effect, score=float(o.gain if judged else np.nan),
@@ -415,7 +417,7 @@ def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, 
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
                "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
-               "converged": not o.unconverged,
+               "converged": not o.unconverged, "fold_fits_at_limit": o.cut or None,
                "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
     if finding:
         log(finding)

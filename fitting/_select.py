@@ -23,14 +23,17 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    (`Fitter.cross_validate_nested`); a base-model option, which does not contain the
    current model, is refitted from its own start (`Fitter.cross_validate`);
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
-   fold's test samples is a block), has a mean above `z` standard errors, and every fitted
-   parameter is in its physical range (``param(..., physical=(lo, hi))``) and every fit
-   of it and every fold fit of the current model converged (a fold fit that stops at its
-   step limit is continued once, from where it stopped, for the current model and the
-   option alike; one that still has not converged is no evidence); the qualifying
-   option with the largest ``z`` is added (the strongest evidence first, as forward
-   selection by the partial F statistic: a base-model change that removes more error
-   less consistently does not push out an effect the data support more firmly);
+   fold's test samples is a block), has a mean above `z` standard errors, every fitted
+   parameter is in its physical range (``param(..., physical=(lo, hi))``) and its fit on
+   every sample converged; the qualifying option with the largest ``z`` is added (the
+   strongest evidence first, as forward selection by the partial F statistic: a
+   base-model change that removes more error less consistently does not push out an
+   effect the data support more firmly). The fold fits are compared at equal effort
+   (`Fitter.reference`): an option's fold fit gets the step budget of `Fitter.fold_fit`
+   from the current model's fold fit, and where that fit stopped at its step limit, the
+   current model is continued from it with the same budget and that continuation is the
+   reference; a fold fit still at its limit is judged where it stopped (its held-out
+   error is measured on samples it never saw, whatever its effort);
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
@@ -117,11 +120,22 @@ class Option:
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     fold_preds: list = dataclasses.field(default_factory=list)
     fold_models: list = dataclasses.field(default_factory=list)
-    unconverged: str = ""  # "" when every fit of it converged, else which did not
+    fold_converged: list = dataclasses.field(default_factory=list)
+    fold_refs: list = dataclasses.field(default_factory=list)  # as a reference (`reference`)
+    unconverged: str = ""  # "" when its fit on every sample converged, else why not
+    cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
 
     def _note(self, what: str, res) -> None:
         if not _converged(res):
             self.unconverged += ("; " if self.unconverged else "") + f"{what}: {res.stopped}"
+
+    def _fold(self, fitted, pred, res) -> None:
+        self.fold_models.append(fitted)
+        self.fold_preds.append(pred)
+        self.fold_converged.append(_converged(res))
+        if not _converged(res):
+            self.cut += ("; " if self.cut else "") + (
+                f"fold {len(self.fold_preds) - 1}: {res.stopped.split(';')[0]}")
 
     @property
     def name(self) -> str:
@@ -195,9 +209,7 @@ class Fitter:
 
     def fold_fit(self, model, on: frozenset, train):
         """`fit` on a fold's training samples, continued once from where it stopped when
-        it did not converge (the same effort for the current model and every option: a
-        fold fit cut at its step limit would otherwise leave improvement that the next
-        fit started from it counts as its effect's gain)."""
+        it did not converge: the step budget of every fold fit."""
         fitted, pred = self.fit(model, on, train)
         if not _converged(self.last):
             fitted, pred = self.fit(fitted, on, train)
@@ -220,10 +232,26 @@ class Fitter:
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            fitted, pred = self.fold_fit(model, option.on, train)
-            option._note(f"fold {k} fit", self.last)
-            option.fold_models.append(fitted)
-            option.fold_preds.append(pred)
+            option._fold(*self.fold_fit(model, option.on, train), self.last)
+
+    def reference(self, current: Option, folds) -> None:
+        """Set `current.fold_refs`, the held-out predictions every option is judged
+        against: per fold, the current model's fold fit, or where that fit stopped at its
+        step limit, the same fit continued from where it stopped with the budget each
+        option gets from that point (`fold_fit`). Equal effort: a fit cut at its limit
+        leaves improvement that an option started from it would otherwise be credited
+        with; continued alike, the difference is the option's freedom, not more steps.
+        (A fit that converged stops at once when continued, so it is its own reference.)"""
+        if current.fold_refs:
+            return
+        for k, (train, _) in enumerate(folds):
+            if current.fold_converged[k]:
+                current.fold_refs.append(current.fold_preds[k])
+            else:
+                self.log(f"  continuing the current model's fold {k} fit (stopped at its "
+                         "step limit) as the reference ...")
+                current.fold_refs.append(self.fold_fit(current.fold_models[k], current.on,
+                                                       train)[1])
 
     def cross_validate(self, option: Option, folds) -> None:
         """Refit `option` from its start (`option.model`) with each fold held out. Not
@@ -232,18 +260,17 @@ class Fitter:
         was fitted on them."""
         if not option.fold_preds:
             for k, (train, _) in enumerate(folds):
-                fitted, pred = self.fold_fit(option.model, option.on, train)
-                option._note(f"fold {k} fit", self.last)
-                option.fold_models.append(fitted)
-                option.fold_preds.append(pred)
+                option._fold(*self.fold_fit(option.model, option.on, train), self.last)
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
     """Set `option`'s held-out gain over `current` (share of the current model's held-out
-    SSE) and ``z``: the mean block gain over its standard error."""
+    SSE) and ``z``: the mean block gain over its standard error. The current model's
+    held-out predictions are its `fold_refs` when set (`Fitter.reference`)."""
+    ref = current.fold_refs or current.fold_preds
     diffs, total = [], 0.0
     for k, idx in _blocks(folds):
-        r0 = current.fold_preds[k][idx] - F[idx]
+        r0 = ref[k][idx] - F[idx]
         r1 = option.fold_preds[k][idx] - F[idx]
         diffs.append(float(r0 @ r0 - r1 @ r1))
         total += float(r0 @ r0)
@@ -358,6 +385,7 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
 def _cross_validate(fitter, current, options, folds, rules, log):
     """Cross-validate `current` and `options`; the qualifying one of largest ``z``."""
     fitter.cross_validate(current, folds)
+    fitter.reference(current, folds)
     for o in options:
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
@@ -368,9 +396,9 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else "")
-            + (f" (not converged: {o.unconverged})" if o.unconverged else ""))
-    # A fit that did not converge is no evidence: its gain (or the current model's loss)
-    # may be a difference of effort, not of models.
-    good = [o for o in options if o.z >= rules.z and not o.physical and not o.unconverged
-            and not current.unconverged]
+            + (f" (not converged: {o.unconverged})" if o.unconverged else "")
+            + (f" (judged where stopped: {o.cut})" if o.cut else ""))
+    # An option whose fit on every sample did not converge has no final values to check
+    # or add; its fold fits are evidence at equal effort (`Fitter.reference`).
+    good = [o for o in options if o.z >= rules.z and not o.physical and not o.unconverged]
     return max(good, key=lambda o: o.z) if good else None
