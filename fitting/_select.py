@@ -28,12 +28,8 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    every sample converged; the qualifying option with the largest ``z`` is added (the
    strongest evidence first, as forward selection by the partial F statistic: a
    base-model change that removes more error less consistently does not push out an
-   effect the data support more firmly). The fold fits are compared at equal effort
-   (`Fitter.reference`): an option's fold fit gets the step budget of `Fitter.fold_fit`
-   from the current model's fold fit, and where that fit stopped at its step limit, the
-   current model is continued from it with the same budget and that continuation is the
-   reference; a fold fit still at its limit is judged where it stopped (its held-out
-   error is measured on samples it never saw, whatever its effort);
+   effect the data support more firmly). Fold fits are compared at equal effort
+   (`Fitter.reference`); one stopped at its step limit is judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
@@ -259,7 +255,7 @@ class Fitter:
         solver's tolerance test), leaving the held-out blocks predicted by a model that
         was fitted on them."""
         if not option.fold_preds:
-            for k, (train, _) in enumerate(folds):
+            for train, _ in folds:
                 option._fold(*self.fold_fit(option.model, option.on, train), self.last)
 
 

@@ -149,8 +149,8 @@ def test_diagnose_finds_a_mass_and_adds_nothing_to_its_clean_twin():
 
 
 def test_a_fit_cut_at_its_step_limit_is_no_evidence():
-    """The quick case with every fit cut at three steps (continued once on each fold): the
-    mass is not added, and its evidence says why."""
+    """The quick case with every fit cut at three steps: the mass's fit on every sample
+    has no final values to add, so the mass is not added, and its evidence says why."""
     start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
     rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
     d = diagnose(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
@@ -158,3 +158,28 @@ def test_a_fit_cut_at_its_step_limit_is_no_evidence():
     assert d.final.added == []
     assert "not converged" in d.candidates[0].evidence
     assert d.trials[0]["converged"] is False
+
+
+@pytest.mark.parametrize("max_steps", [3, 150])
+def test_the_reference_is_the_current_fold_fit_continued_with_an_options_budget(max_steps):
+    """Equal effort: where the current model's fold fit stopped at its step limit, the
+    reference an option is judged against is that fit continued with the budget an option
+    gets from it (`Fitter.fold_fit`), and it fits the training samples better; a fold fit
+    that converged is its own reference."""
+    from fitting._params import to_fit_representation
+
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
+    folds = S.time_block_folds(t, 8, 2)
+    fitter = S.Fitter(S.Data(t, x, v, F, a), max_steps=max_steps)
+    cur = S.Option(("base",), to_fit_representation(start), frozenset())
+    fitter.cross_validate(cur, folds)
+    assert cur.fold_converged == [max_steps > 3] * 2
+    fitter.reference(cur, folds)
+    for k, (train, _) in enumerate(folds):
+        if cur.fold_converged[k]:
+            assert cur.fold_refs[k] is cur.fold_preds[k]
+            continue
+        continued = fitter.fold_fit(cur.fold_models[k], cur.on, train)[1]
+        np.testing.assert_allclose(cur.fold_refs[k], continued, rtol=1e-12)
+        assert np.sum(train * (cur.fold_refs[k] - F) ** 2) < np.sum(
+            train * (cur.fold_preds[k] - F) ** 2)
