@@ -37,10 +37,6 @@ def _true_mass(t_fine_dt=2e-4):
     return 2.0 / np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "measured: searched on every sample, round 1 adds GMS with 20 elements (z 5.33); "
-    "inertia has z 5.34 but one of its fold fits stops at its 150-step limit (no "
-    "evidence), so the mass comes second (final RMSE 0.204 N, held out 0.261 N)"))
 def test_point_to_point_mass_error_is_found_and_recovered():
     """The mass is added (then, the base model's presliding mismatch being most of what is
     left, a GMS base model may be too), with its value, and the held-out error falls."""
