@@ -231,13 +231,10 @@ class Fitter:
             option._fold(*self.fold_fit(model, option.on, train), self.last)
 
     def reference(self, current: Option, folds) -> None:
-        """Set `current.fold_refs`, the held-out predictions every option is judged
-        against: per fold, the current model's fold fit, or where that fit stopped at its
-        step limit, the same fit continued from where it stopped with the budget each
-        option gets from that point (`fold_fit`). Equal effort: a fit cut at its limit
-        leaves improvement that an option started from it would otherwise be credited
-        with; continued alike, the difference is the option's freedom, not more steps.
-        (A fit that converged stops at once when continued, so it is its own reference.)"""
+        """Set `current.fold_refs`, what every option is judged against: per fold, the
+        current model's fold fit, or where it stopped at its step limit, that fit continued
+        with the budget each option gets from it (`fold_fit`). Equal effort: an option is
+        not credited with the improvement a cut fit leaves, only with its own freedom."""
         if current.fold_refs:
             return
         for k, (train, _) in enumerate(folds):
