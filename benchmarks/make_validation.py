@@ -3,6 +3,7 @@
     python benchmarks/make_validation.py [--check]
 
 Reads, relative to the repository root: ``benchmarks/diagnosis_bench.json``,
+``benchmarks/diagnosis_bench_runs.json``,
 ``benchmarks/fit_speed.json``, ``benchmarks/throughput.json``,
 ``benchmarks/montecarlo_speed.json``, ``benchmarks/c_step.json``,
 ``benchmarks/diagnose_speed.json``, ``benchmarks/compiler_options.json`` and the real-data
@@ -25,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "validation.md"
 SOURCES = {
     "diagnosis": "benchmarks/diagnosis_bench.json",
+    "diagnosis_runs": "benchmarks/diagnosis_bench_runs.json",
     "fit_speed": "benchmarks/fit_speed.json",
     "throughput": "benchmarks/throughput.json",
     "montecarlo": "benchmarks/montecarlo_speed.json",
@@ -164,6 +166,49 @@ def section_diagnosis(d: dict) -> list[str]:
         + (" to ".join(dict.fromkeys([dates[0], dates[-1]])) if dates else "(not recorded)")
         + ".",
     ]
+
+
+def section_generalisation(d: dict) -> list[str]:
+    """The diagnosis bench's judged runs: each file's truth and hidden effects on a run the
+    diagnosis never saw, predicted by the baseline and by the diagnosed model."""
+    rows, files, worse = [], 0, []
+    for c in d["corners"]:
+        judged = c.get("judged_runs", [])
+        files += len(judged)
+        ratios = [j["rmse_after"] / j["rmse_before"] for j in judged]
+        here = [j for j in judged if j["rmse_after"] > j["rmse_before"]]
+        worse += here
+        rows.append([f"{1e3 * c['dt_s']:g}", fmt(c["noise_N"]), c.get("motion", "-"),
+                     ", ".join(c["truths"]), c.get("runs_diagnosed", 1), len(judged),
+                     sum(bool(j["added"]) for j in judged),
+                     sum(r < 1 for r in ratios), len(here),
+                     fmt(float(sorted(ratios)[len(ratios) // 2]) if ratios else None)])
+    body = [
+        "Does what the diagnosis adds hold on another run? Each bench file's truth and "
+        "hidden effects are recorded once more on another motion, which the diagnosis never "
+        "sees (with two runs diagnosed, leave one run out, on a third), and predicted by the "
+        "baseline and by the diagnosed model. Goal: no judged run predicted worse.",
+        goals_table([("judged runs predicted worse after the diagnosis",
+                      f"{len(worse)} / {files}", "0", not worse)]),
+        table(["dt [ms]", "noise [N]", "motion", "truths", "runs diagnosed", "files",
+               "something added", "judged run better", "worse", "median RMSE after/before"],
+              rows)]
+    if worse:
+        body.append(table(["truth", "hidden", "added", "RMSE before [N]", "after [N]"],
+                          [[j["truth"], " + ".join(j["hidden"]) or "(clean)",
+                            " + ".join(j["added"]), fmt(j["rmse_before"]),
+                            fmt(j["rmse_after"])] for j in worse]))
+    body.append(command("python benchmarks/diagnosis_bench.py --quick --runs 2 --out ROWS.json"
+                        "\npython benchmarks/diagnosis_bench.py --summarise ROWS.json --summary "
+                        "benchmarks/diagnosis_bench_runs.json"))
+    runs = [r for c in d["corners"] for r in c.get("runs", [])]
+    hours = sum(r.get("seconds") or 0 for r in runs) / 3600
+    dates = sorted(r["date_utc"] for r in runs if r.get("date_utc"))
+    body.append(f"Machine: {', '.join(sorted({r.get('cpu') or '?' for r in runs}))}, "
+                f"{'/'.join(sorted({str(r.get('cores', '?')) for r in runs}))} cores; "
+                f"{hours:.1f} h of wall time, run {dates[-1] if dates else '(not recorded)'} "
+                "UTC.")
+    return body
 
 
 def _goal_rows(goals: list[dict]) -> list[tuple]:
@@ -334,6 +379,7 @@ def section_compiler_options(d: dict) -> list[str]:
 
 SECTIONS = [
     ("Diagnosis bench", ("diagnosis",), section_diagnosis),
+    ("Diagnosis bench: another run", ("diagnosis_runs",), section_generalisation),
     ("Fit speed", ("fit_speed",), section_fit_speed),
     ("Throughput", ("throughput",), section_throughput),
     ("Monte-Carlo", ("montecarlo",), section_montecarlo),
