@@ -11,8 +11,9 @@ from benchmarks.make_validation import render, SOURCES
 
 
 ROOT = Path(__file__).resolve().parents[2]
-HEADINGS = ["## Diagnosis bench", "## Fit speed", "## Throughput", "## Monte-Carlo",
-            "## Real data", "## C step", "## Diagnose speed", "## Compiler options"]
+HEADINGS = ["## Diagnosis bench", "## Diagnosis bench: another run", "## Fit speed",
+            "## Throughput", "## Monte-Carlo", "## Real data", "## C step",
+            "## Diagnose speed", "## Compiler options"]
 
 
 def test_the_committed_page_is_the_generated_one():
@@ -53,6 +54,22 @@ def test_the_diagnosis_targets_are_judged_on_the_counts(tmp_path):
     path.write_text(json.dumps(data))
     n = len(data["corners"])
     assert f"| effects added on clean files | {n} | 0 | **MISSED** |" in render(root)
+
+
+def test_a_judged_run_predicted_worse_is_counted_and_shown(tmp_path):
+    """The generalisation goal follows the judged runs: one run predicted worse after the
+    diagnosis makes it missed and puts that file in the table."""
+    root = _copy(tmp_path)
+    path = root / SOURCES["diagnosis_runs"]
+    data = json.loads(path.read_text())
+    judged = data["corners"][0]["judged_runs"]
+    judged[0]["rmse_after"] = 2 * judged[0]["rmse_before"]
+    path.write_text(json.dumps(data))
+    page = render(root)
+    n = sum(len(c["judged_runs"]) for c in data["corners"])
+    assert f"| judged runs predicted worse after the diagnosis | 1 / {n} | 0 | **MISSED** |" \
+        in page
+    assert f"| {judged[0]['truth']} | " in page
 
 
 def test_a_missing_json_is_said_not_invented(tmp_path):
