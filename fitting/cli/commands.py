@@ -284,7 +284,7 @@ def run_simulate(args) -> int:
 
         return simulate_joints(args, MODEL_NAMES[args.model or "two-state"], log,
                                model_from_json)
-    for path in files[1:] if len(files) > 1 else ():
+    for path in files if len(files) > 1 else ():
         if _data.joint_layout(path):
             raise _data.DataError(f"{path}: holds several joints; simulate a joint file alone")
     measurements = []

@@ -82,18 +82,23 @@ def test_run_k_simulates_that_runs_own_model(fitted, run, tmp_path):
 
 
 @pytest.mark.parametrize("case", ["run out of range", "run without params",
-                                  "same names", "out over an input"])
+                                  "same names", "out over an input", "a joint file first"])
 def test_what_simulate_refuses_is_one_line(fitted, run, tmp_path, case):
     paths, fit, _ = fitted
     other = tmp_path / "elsewhere"
     other.mkdir()
     twin = _write(other / "run1.csv", *np.loadtxt(paths[0], delimiter=",", skiprows=1).T)
+    joints = other / "joints.csv"  # the wide layout of several joints
+    np.savetxt(joints, np.random.default_rng(0).random((50, 5)), delimiter=",",
+               header="t,q1,tau1,q2,tau2", comments="")
     argv, words = {
         "run out of range": ((paths[0], "--params", fit, "--run", 3), "1 to 2"),
         "run without params": ((paths[0], "--run", 1), "give --params"),
         "same names": ((paths[0], twin, "--out", tmp_path / "f"), "run1.csv"),
         "out over an input": ((paths[0], paths[1], "--out", paths[0].parent),
                               "would overwrite the input"),
+        "a joint file first": ((joints, paths[0], "--out", tmp_path / "f"),
+                               "simulate a joint file alone"),
     }[case]
     rc, _, err = run("simulate", *argv)
     assert rc == 2 and len(err.strip().splitlines()) == 1 and words in err, err
