@@ -122,21 +122,28 @@ def test_validation_error_is_a_separate_simulate_of_the_saved_model(files, fitte
     assert np.sqrt(np.mean((model - m.F) ** 2)) > 1.5 * val["rmse"]
 
 
-def test_per_run_offsets_through_the_command_line(files, run, tmp_path):
-    folder = tmp_path
+def _fit_per_run(files, run, folder, name, seed, effect_of_run):
+    """``jaxfric fit`` of runs on the motions of `files`, run ``i`` made by ``TRUTH +
+    effect_of_run[i]`` with 0.02 N of noise (velocity column: the one simulated with), from
+    ``TRUTH`` plus that effect at its defaults; returns the saved JSON and the printed text."""
     paths = []
-    for i, off in enumerate((0.4, -0.1)):
+    for i, effect in enumerate(effect_of_run):
         m = jaxfric.data.load(files[i])
-        F = np.asarray(jaxfric.simulate(TRUTH + effects.Offset(offset=off), m.t, m.x))
-        F = F + 0.02 * np.random.default_rng(10 + i).normal(size=F.size)
-        v = np.asarray(jaxfric.motion.velocity(m.t, m.x))  # the velocity simulated with
-        paths.append(_write(folder / f"off{i}.csv", "t,x,v,F", [m.t, m.x, v, F]))
+        F = np.asarray(jaxfric.simulate(TRUTH + effect, m.t, m.x))
+        F = F + 0.02 * np.random.default_rng(seed + i).normal(size=F.size)
+        v = np.asarray(jaxfric.motion.velocity(m.t, m.x))
+        paths.append(_write(folder / f"{name}{i}.csv", "t,x,v,F", [m.t, m.x, v, F]))
     start = folder / "start.json"
-    jaxfric.save_model(TRUTH + effects.Offset(), start)
+    jaxfric.save_model(TRUTH + type(effect_of_run[0])(), start)
     out = folder / "fit.json"
     rc, text, err = run("fit", *paths, "--params", start, "--json", out)
     assert rc == 0, err
-    saved = json.loads(out.read_text())
+    return json.loads(out.read_text()), text
+
+
+def test_per_run_offsets_through_the_command_line(files, run, tmp_path):
+    saved, text = _fit_per_run(files, run, tmp_path, "off", 10,
+                               [effects.Offset(offset=off) for off in (0.4, -0.1)])
     got = [r["params"]["offset"] for r in saved["runs"]]
     np.testing.assert_allclose(got, [0.4, -0.1], atol=5e-3)
     assert "offset_1" in saved["params"] and "per-run parameters" in text
@@ -152,20 +159,9 @@ def test_drift_levels_per_run_through_the_command_line(files, run, tmp_path):
     run 2 (run 1 is the reference, 0) with its standard error, gives each run's level and
     model, and saves the model for a run not fitted (the mean level), which `export`
     writes as C."""
-    paths = []
-    for i, level in enumerate((0.0, 0.04)):
-        m = jaxfric.data.load(files[i])
-        F = np.asarray(jaxfric.simulate(
-            TRUTH + effects.Drift(drift_rate=1e-3, drift_level=level), m.t, m.x))
-        F = F + 0.02 * np.random.default_rng(20 + i).normal(size=F.size)
-        v = np.asarray(jaxfric.motion.velocity(m.t, m.x))
-        paths.append(_write(tmp_path / f"drift{i}.csv", "t,x,v,F", [m.t, m.x, v, F]))
-    start = tmp_path / "start.json"
-    jaxfric.save_model(TRUTH + effects.Drift(), start)
-    out = tmp_path / "fit.json"
-    rc, text, err = run("fit", *paths, "--params", start, "--json", out)
-    assert rc == 0, err
-    saved = json.loads(out.read_text())
+    saved, text = _fit_per_run(files, run, tmp_path, "drift", 20,
+                               [effects.Drift(drift_rate=1e-3, drift_level=level)
+                                for level in (0.0, 0.04)])
     level, error = saved["params"]["drift_level_2"], saved["stderr"]["drift_level_2"]
     assert 0 < error < 1e-3 and abs(level - 0.04) <= 3 * error
     assert "drift_level_1" not in saved["params"] and "per-run parameters" in text
@@ -175,7 +171,7 @@ def test_drift_levels_per_run_through_the_command_line(files, run, tmp_path):
             r["params"]["drift_level"])
     mean = jaxfric.load_model(saved["fitted_model"])
     np.testing.assert_allclose(float(mean.effects[0].drift_level), level / 2, rtol=1e-12)
-    rc, _, err = run("export", out, "--c", tmp_path / "c")
+    rc, _, err = run("export", tmp_path / "fit.json", "--c", tmp_path / "c")
     assert rc == 0, err
     assert "JF_DRIFT_LEVEL" in (tmp_path / "c" / "jaxfric_model.c").read_text()
 
