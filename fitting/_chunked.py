@@ -66,6 +66,8 @@ from ._transforms import Exp, Sigmoid, Softplus
 
 #: Most solver steps per compiled call (static: the loop bound of `_chunk`).
 CHUNK = 32
+#: The confidence level of `_chance_bound`.
+CONFIDENCE = 0.99
 #: Fewest steps per call (the first step of a call only evaluates the residual at its start).
 MIN_CHUNK = 8
 
@@ -81,6 +83,7 @@ class _ChunkOut(eqx.Module):
     step_size: Array  # the trust region's at the end (0 for a solver without one)
     left: Array  # `decrease_left` at the end: the Gauss-Newton decrease left / s^2
     undetermined: Array  # how many free directions are undetermined there
+    gained: Array  # the cost's decrease over the last `STALL_STEPS` steps / s^2 (or inf)
 
 
 def _scaled_residuals(z, args):
@@ -111,7 +114,7 @@ def _chunk_steps(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
     return _ChunkOut(y=y_c + inv_d * sol.value, result=sol.result,
                      num_steps=sol.stats["num_steps"], resid=resid, jac=jac, force=force,
                      overflow=overflow, step_size=jnp.asarray(size, y_c.dtype), left=left,
-                     undetermined=count)
+                     undetermined=count, gained=stopping.gained(sol.state, resid))
 
 
 @jit
@@ -182,10 +185,15 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
             return (f"the Gauss-Newton decrease left is {left:.2g} noise variances "
                     f"(decrease = {tol.decrease:g}): nothing the data can tell is left",
                     True)
-        if left <= STALL_PREDICTED:
-            return (f"the steps stalled: the last {STALL_STEPS} gained under "
-                    f"{tol.decrease:g} noise variances, {left:.2g} predicted (or the "
-                    "solver's own test)", True)
+        gained = float(out.gained)
+        bound = _chance_bound(out.jac)
+        if tol.decrease > 0 and gained <= tol.decrease:
+            why = (f"the steps stalled: the last {STALL_STEPS} gained under "
+                   f"{tol.decrease:g} noise variances, {left:.3g} predicted")
+            if left <= bound:
+                return why, True
+            return (why + f", more than chance allows ({bound:.3g}): the linear model does "
+                    "not hold here (a kink of the cost) and the fit may be stuck", False)
         ref_y = ref[2]
         exact = np.sqrt(np.mean(np.asarray(out.resid) ** 2)) <= EXACT_RESIDUAL
         cosine = _max_cosine(out.jac, out.resid)
@@ -193,6 +201,14 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
                 cosine > STUCK_COSINE):
             return (f"the solver's own test fired without moving the fit although the "
                     f"gradient is not nil (cosine {cosine:.1e}): the fit is stuck", False)
+        # The solver's own test (a step within rtol/atol) fires in a crawl as well as at
+        # an optimum: it counts only where the fit is within a noise variance of where it
+        # stands, by the linear model or by what the last steps achieved.
+        if tol.decrease > 0 and not exact and (min(left, gained) > STALL_PREDICTED
+                                               or left > bound):
+            return (f"the solver's own test fired (last step within rtol/atol) before the "
+                    f"fit settled: {left:.3g} noise variances predicted left, and the last "
+                    f"steps still gaining ({_gain_words(gained)})", False)
         return "the solver's own test (last step and residual change within rtol/atol)", True
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"
@@ -216,6 +232,23 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
     if _max_cosine(out.jac, resid) <= tol.gtol:
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", True
     return None, False
+
+
+def _chance_bound(jac) -> float:
+    """The most decrease, in noise variances, that the Gauss-Newton step from a fit at its
+    optimum leaves by chance: ``chi2.ppf(CONFIDENCE, p) / 2`` for the ``p`` free columns of
+    `jac`. Twice the decrease left is the squared length of the step left in standard
+    errors, which from the true parameters is chi-square with ``p`` degrees of freedom;
+    a fit whose step left is longer stands outside the confidence region of the optimum
+    its own linear model points to."""
+    p = int(np.count_nonzero(np.linalg.norm(np.asarray(jac), axis=0) > 0))
+    return 0.5 * float(chi2.ppf(CONFIDENCE, max(p, 1)))
+
+
+def _gain_words(gained: float) -> str:
+    if not np.isfinite(gained):
+        return f"fewer than {STALL_STEPS} steps in this call"
+    return f"{gained:.3g} noise variances over the last {STALL_STEPS}"
 
 
 _BOUNDED = (Exp, Softplus, Sigmoid)
