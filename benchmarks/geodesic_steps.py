@@ -1,11 +1,14 @@
-"""Steps and time per fit: `fitting.default_solver` against `fitting.geodesic_solver`
-(the same Levenberg-Marquardt and trust region, plus geodesic acceleration), side by side.
+"""Steps and time per fit, side by side: ``optimistix`` (``optx.LevenbergMarquardt`` with
+MINPACK's trust-region update, whose Jacobian is a linearised simulation run again for each
+use), ``plain`` (`fitting.geodesic_solver(accelerate=False)`: the same steps, its Jacobian
+materialised once per accepted point) and ``geodesic`` (`fitting.default_solver`: plus
+geodesic acceleration, one more simulation per step).
 
 The cells are those of `benchmarks/fit_speed.py` (same data, truths and starts). In one
 process, per cell, the two solvers are run alternately, `--repeats` times each (the first
 fit of each also compiles and is left out of the timing); the table gives each solver's
 steps and the median CPU time (``time.process_time``, less sensitive to other processes on
-a shared machine than the wall clock) of its warm fits, and their ratio.
+a shared machine than the wall clock) of its warm fits, and the ratio geodesic/optimistix.
 
     python benchmarks/geodesic_steps.py [--models two-state tustin] [--motions mixed strokes]
                                         [--sizes 100000] [--repeats 3] [--json OUT]
@@ -23,9 +26,12 @@ import sys
 import time
 from pathlib import Path
 
+import equinox as eqx
 import numpy as np
+import optimistix as optx
 
 import fitting
+from fitting import _solve
 
 
 try:
@@ -34,7 +40,15 @@ except ImportError:  # run as a script: benchmarks/ itself is sys.path[0]
     import fit_speed as fs
 
 
-SOLVERS = {"default": fitting.default_solver, "geodesic": fitting.geodesic_solver}
+def optimistix_solver():
+    """``optx.LevenbergMarquardt`` with the trust-region update of `fitting.default_solver`."""
+    return eqx.tree_at(lambda s: s.search, optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6),
+                       _solve._search())
+
+
+SOLVERS = {"optimistix": optimistix_solver,
+           "plain": lambda: fitting.geodesic_solver(accelerate=False),
+           "geodesic": fitting.default_solver}
 
 
 def cell(model: str, motion: str, n: int, repeats: int) -> dict:
@@ -55,7 +69,7 @@ def cell(model: str, motion: str, n: int, repeats: int) -> dict:
         warm = [c for c, *_ in r[1:]]
         out[name] = {"steps": r[-1][1], "cpu_s": float(np.median(warm)), "rmse": r[-1][2],
                      "status": r[-1][3]}
-    out["cpu_ratio"] = out["geodesic"]["cpu_s"] / out["default"]["cpu_s"]
+    out["cpu_ratio"] = out["geodesic"]["cpu_s"] / out["optimistix"]["cpu_s"]
     return out
 
 
@@ -69,7 +83,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json", metavar="OUT",
                     default=str(Path(__file__).with_name("geodesic_steps.json")))
     args = ap.parse_args(argv)
-    head = "model | motion | n | steps | geodesic steps | CPU s | geodesic CPU s | ratio"
+    head = ("model | motion | n | optimistix steps | plain steps | geodesic steps | "
+            "optimistix CPU s | plain CPU s | geodesic CPU s | ratio")
     print(head, flush=True)
     cells = []
     for model in args.models:
@@ -77,14 +92,14 @@ def main(argv=None) -> int:
             for motion in args.motions:
                 c = cell(model, motion, n, args.repeats)
                 cells.append(c)
-                d, g = c["default"], c["geodesic"]
-                print(f"{model} | {motion} | {n:.0e} | {d['steps']} | {g['steps']} | "
-                      f"{d['cpu_s']:.3f} | {g['cpu_s']:.3f} | {c['cpu_ratio']:.2f}",
-                      flush=True)
+                o, p, g = c["optimistix"], c["plain"], c["geodesic"]
+                print(f"{model} | {motion} | {n:.0e} | {o['steps']} | {p['steps']} | "
+                      f"{g['steps']} | {o['cpu_s']:.3f} | {p['cpu_s']:.3f} | "
+                      f"{g['cpu_s']:.3f} | {c['cpu_ratio']:.2f}", flush=True)
     over = {name: sum(c[name]["steps"] > fs.TARGETS["steps"] for c in cells)
             for name in SOLVERS}
-    print(f"cells over {fs.TARGETS['steps']} steps: default {over['default']}, "
-          f"geodesic {over['geodesic']} (of {len(cells)})")
+    print(f"cells over {fs.TARGETS['steps']} steps: " + ", ".join(
+        f"{name} {count}" for name, count in over.items()) + f" (of {len(cells)})")
     command = " ".join(["python benchmarks/geodesic_steps.py", *(argv or sys.argv[1:])])
     result = {"command": command, "repeats": args.repeats,
               "machine": {"cpu_count": os.cpu_count(), "python": platform.python_version(),

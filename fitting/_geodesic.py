@@ -60,6 +60,14 @@ def _f_info(fn, y, args, tags):
         f, lx.FunctionLinearOperator(lin, jax.eval_shape(lambda: y), tags)), aux
 
 
+def _materialised(f_info):
+    """`f_info` with its Jacobian as a matrix (``p`` tangent passes through the model,
+    once): the damped solves, the trust region's prediction, the acceleration and the
+    stopping rule (`fitting._stopping`) then multiply by it instead of each running the
+    linearised simulation again."""
+    return optx.FunctionInfo.ResidualJac(f_info.residual, lx.materialise(f_info.jac))
+
+
 def _zeros(tree):
     """`tree` with each ``jax.ShapeDtypeStruct`` replaced by zeros (the rest kept)."""
     return jax.tree.map(
@@ -88,9 +96,11 @@ class GeodesicLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     search: optx.ClassicalTrustRegion
     descent: optx.DampedNewtonDescent = optx.DampedNewtonDescent(linear_solver=lx.QR())
     verbose: Callable[..., None] = _quiet
+    accelerate: bool = eqx.field(static=True, default=True)
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
-        f_info_struct, _ = eqx.filter_eval_shape(_f_info, fn, y, args, tags)
+        f_info_struct, _ = eqx.filter_eval_shape(
+            lambda *a: (_materialised(_f_info(*a)[0]), None), fn, y, args, tags)
         return _State(
             first_step=jnp.array(True), y_eval=y, accel=jnp.zeros_like(y),
             search_state=self.search.init(y, f_info_struct), f_info=_zeros(f_info_struct),
@@ -101,23 +111,21 @@ class GeodesicLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     def step(self, fn, y, args, options, state, tags):
         y_try = state.y_eval + state.accel
         f_eval_info, aux_eval = _f_info(fn, y_try, args, tags)
-        # The same jaxpr object for both branches of the cond (as optimistix does).
-        dynamic = eqx.filter(f_eval_info.jac, eqx.is_array)
-        static = eqx.filter(state.f_info.jac, eqx.is_array, inverse=True)
-        f_eval_info = eqx.tree_at(lambda f: f.jac, f_eval_info,
-                                  eqx.combine(dynamic, static))
         # The ratio: the cost at y_try against the linear prediction for v (y_eval - y).
         step_size, accept, search_result, search_state = self.search.step(
             state.first_step, y, state.y_eval, state.f_info, f_eval_info,
             state.search_state)
 
         def accepted(descent_state):
-            descent_state = self.descent.query(y_try, f_eval_info, descent_state)
+            # (The Jacobian is materialised here only: a rejected step costs the
+            # simulation and its linearisation, not the p tangent passes.)
+            f_info = _materialised(f_eval_info)
+            descent_state = self.descent.query(y_try, f_info, descent_state)
             f_diff = jax.tree.map(lambda a, b: a - b, f_eval_info.residual,
                                   state.f_info.residual)
             terminate = _cauchy(self.rtol, self.atol, self.norm, y_try, y_try - y,
                                 f_eval_info.residual, f_diff)
-            return y_try, f_eval_info, aux_eval, descent_state, terminate
+            return y_try, f_info, aux_eval, descent_state, terminate
 
         def rejected(descent_state):
             return y, state.f_info, state.aux, descent_state, jnp.array(False)
@@ -125,7 +133,8 @@ class GeodesicLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         y, f_info, aux, descent_state, terminate = _filter_cond(
             accept, accepted, rejected, state.descent_state)
         v, descent_result = self.descent.step(step_size, descent_state)
-        accel = self._acceleration(fn, y, args, f_info, v, step_size, descent_state)
+        accel = (self._acceleration(fn, y, args, f_info, v, step_size, descent_state)
+                 if self.accelerate else jnp.zeros_like(v))
         result = optx.RESULTS.where(search_result == optx.RESULTS.successful,
                                    descent_result, search_result)
         prev_aux = jax.tree.map(lambda a, b: jnp.where(state.first_step, a, b), aux,

@@ -27,37 +27,41 @@ from ._stopping import decrease_left, Stopping, Tolerances
 _EIG_FLOOR = 1e-15
 
 
-def default_solver() -> optx.LevenbergMarquardt:
-    """``optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)`` whose trust region grows (x2)
-    whenever a step achieves more than `GROW_RATIO` = 0.75 of the decrease the linear
-    model predicts, as MINPACK's lmder does, instead of optimistix's default (x3.5 above
-    0.99 only). Near an optimum in a curved valley (LuGre's bristles, the Stribeck curve's
-    Fc ~ Vs, the presliding shape) the steps achieve 0.95-0.99 of the prediction, so with
-    optimistix's update the damping stays where it is and each step removes a fixed
-    fraction of what is left: a crawl of 10-20 steps for the last noise variance
-    (benchmarks/fit_speed.py, tests/fitting/test_fit_properties.py). Growing by 3.5 at 0.75
-    saves a few steps more but sent a fit with a cogging into a wrong period
+def default_solver() -> GeodesicLevenbergMarquardt:
+    """Levenberg-Marquardt with geodesic acceleration (`geodesic_solver`), ``rtol = atol =
+    1e-6``, and MINPACK lmder's trust-region update: the region grows (x2) whenever a step
+    achieves more than `GROW_RATIO` = 0.75 of the decrease the linear model predicts,
+    instead of optimistix's default (x3.5 above 0.99 only). Near an optimum in a curved
+    valley (LuGre's bristles, the Stribeck curve's Fc ~ Vs, the presliding shape) the steps
+    achieve 0.95-0.99 of the prediction, so with optimistix's update the damping stays
+    where it is and each step removes a fixed fraction of what is left. Growing by 3.5 at
+    0.75 saves a few steps more but sent a fit with a cogging into a wrong period
     (tests/core/test_effects.py::test_joint_fit_recovers_hidden_effects), as did Nielsen's
-    update. `geodesic_solver` adds geodesic acceleration (fewer steps in curved valleys, one
-    more simulation per step).
+    update. The acceleration keeps long steps on the floor of a curved valley, where
+    the plain steps alternate between accepted and rejected (benchmarks/geodesic_steps.py
+    compares both); its cost, one more simulation per step, is about what the Jacobian,
+    materialised once per accepted point (`fitting._geodesic`), saves against
+    ``optx.LevenbergMarquardt``, which runs the linearised simulation again for each
+    damped solve and for the stopping rule. ``optx.LevenbergMarquardt`` or any other
+    optimistix least-squares solver can be passed as ``solver=``.
 
-    optimistix stops when both the last step in ``y`` and the change of every residual are
-    below ``atol + rtol*|value|``. ``y`` is of order one (scaled coordinates) and residuals
-    are in units of the force's standard deviation, so 1e-6 means parameters settled to
-    about 1e-6 relative, far below any standard error; the statistical rule of
+    The solver's own test stops when both the last step in ``y`` and the change of every
+    residual are below ``atol + rtol*|value|``. ``y`` is of order one (scaled coordinates)
+    and residuals are in units of the force's standard deviation, so 1e-6 means parameters
+    settled to about 1e-6 relative, far below any standard error; the statistical rule of
     `fitting._stopping` usually stops the fit first.
     """
-    solver = optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6)
-    return eqx.tree_at(lambda s: s.search, solver, _search())
+    return geodesic_solver()
 
 
-def geodesic_solver() -> GeodesicLevenbergMarquardt:
-    """`default_solver` with geodesic acceleration (`fitting._geodesic`): pass as
-    ``fit(..., solver=fitting.geodesic_solver())``. Each step adds half the second-order
+def geodesic_solver(accelerate: bool = True) -> GeodesicLevenbergMarquardt:
+    """Levenberg-Marquardt with geodesic acceleration (`fitting._geodesic`), the default;
+    ``accelerate=False`` gives the same solver without it (the plain damped Gauss-Newton
+    steps, the same trust region). Each accelerated step adds half the second-order
     correction of its path, from one more residual evaluation (one more simulation), so
-    long steps stay on the floor of a curved valley. benchmarks/geodesic_steps.py compares
-    both on the fit_speed cells, steps and time per fit side by side."""
-    return GeodesicLevenbergMarquardt(1e-6, 1e-6, optx.max_norm, _search())
+    long steps stay on the floor of a curved valley."""
+    return GeodesicLevenbergMarquardt(1e-6, 1e-6, optx.max_norm, _search(),
+                                      accelerate=accelerate)
 
 
 def _search() -> optx.ClassicalTrustRegion:
