@@ -1,8 +1,8 @@
 """Least-squares fits of any jaxfric model to measured ``(t, x, F)``.
 
-**Solver.** Levenberg-Marquardt by default (`fitting._solve.default_solver`: optimistix's,
-with MINPACK's trust-region update; `fitting._solve.geodesic_solver` adds geodesic
-acceleration, `fitting._geodesic`), because:
+**Solver.** Levenberg-Marquardt with geodesic acceleration by default
+(`fitting._solve.default_solver`, `fitting._geodesic`, with MINPACK's trust-region
+update), because:
 
 - the problem is a nonlinear least-squares problem with many more samples than parameters
   (thousands against 5-25), so a Gauss-Newton method that uses ``J^T J`` as its curvature
@@ -17,10 +17,11 @@ acceleration, `fitting._geodesic`), because:
   does not square the condition number the way the normal equations would;
 - in the curved valleys these models have (the presliding shape, Fc ~ Vs), geodesic
   acceleration, one more residual evaluation per step, keeps long steps on the valley's
-  floor (an option: it saves steps there and costs time per step everywhere).
+  floor; its Jacobian, materialised once per accepted point, makes up for the evaluation.
 
-`optimistix.Dogleg` or `optimistix.IndirectLevenbergMarquardt` can be passed as ``solver``
-instead; any optimistix minimiser also works (it minimises the sum of squares).
+`optimistix.LevenbergMarquardt`, `optimistix.Dogleg` or
+`optimistix.IndirectLevenbergMarquardt` can be passed as ``solver`` instead; any optimistix
+minimiser also works (it minimises the sum of squares).
 
 **Compilation.** The free set is a traced mask (`fitting._problem`), `lax.map` loops over the
 experiments of one fit, and a custom JVP materialises the Jacobian once per evaluation
