@@ -19,6 +19,8 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   rescaled to it; GMS the elements of that shape (`jaxfric.GMS.from_shape`); LuGre
   ``sigma0 = ln(10)*Fs/x90`` (its force swings as ``2*Fs*(1 - exp(-sigma0*x/Fs))`` after a
   reversal: 90 % at the swing travel ``x90``), ``sigma1`` critically damped for 1 kg.
+- **Records that never slide** (`MIN_SLIDING`): the Stribeck velocity far beyond the
+  data's speeds (`NEVER_SLIDING`), ``sigma2`` at the steady curve's floor.
 - **Friction lag** ``C`` (two-state, GMS): the lag time constant ``Fs/C`` is not measurable
   before the presliding and the curve are known, so it is one of the uncertain values below.
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
@@ -43,7 +45,7 @@ from jaxfric.motion import velocity
 
 from ._data import Dataset
 from ._staged import _estimate_l1, constant_velocity_segments, initial_stribeck
-from ._steady import fit_steady_curve, steady_curve, steady_weights
+from ._steady import fit_steady_curve, steady_curve, steady_sliding, steady_weights
 
 
 KINDS = ("two-state", "gms", "lugre", "tustin")
@@ -62,6 +64,15 @@ START_DELTA = 1.0
 #: from which a fit lands in another optimum (the demo's data: RMSE 0.60 N instead of
 #: 0.45 N). The simulation of each candidate, which has the lag, settles the choice.
 LAG_DELTAS = (0.5, START_DELTA, 2.0)
+#: A record with fewer steady sliding samples than this (`fitting._steady.steady_sliding`)
+#: never slides: the hysteretic start's Stribeck velocity is then `NEVER_SLIDING` times its
+#: largest speed, where the curve is flat over the data (to 0.01 % of its drop with ``delta``
+#: 1). Inside the data's speeds (a fifth of the 90th percentile, as for sliding records
+#: without speed bins) it bends the presliding plateau, and a fit that holds the curve's
+#: undetermined parameters at their start then fits far worse than the free fit
+#: (tests/fitting/test_honest_fits.py).
+MIN_SLIDING = 10
+NEVER_SLIDING = 1e4
 #: Factors on the presliding estimate tried for every hysteretic start.
 SPREAD = (0.5, 1.0, 2.0)
 #: Viscous forces at the 90th percentile of the speed, as fractions of ``Fc``, tried for
@@ -172,6 +183,12 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
         return jaxfric.Tustin(stribeck=stribeck, sigma2=sigma2)
     curves = _static_curve(t, x, F, v, vel, presliding,
                            LAG_DELTAS if kind in ("two-state", "gms") else (START_DELTA,))
+    if steady_sliding(t, x, vel, presliding).sum() < MIN_SLIDING:
+        # Never sliding: no velocity weakening in the data, so none in the start, and a
+        # viscous term as small as the steady curve's floor (`fitting._steady`).
+        vmax = float(np.max(np.abs(vel)))
+        curves = [(eqx.tree_at(lambda s: s.Vs, st, jnp.asarray(NEVER_SLIDING * vmax)),
+                   1e-3 * float(np.max(np.abs(F))) / vmax) for st, _ in curves]
     stribeck, sigma2 = curves[0]
     fs = float(stribeck.Fs)
     if kind == "lugre":

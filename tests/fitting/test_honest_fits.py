@@ -64,21 +64,14 @@ def _presliding_record():
     return t, x, F + 0.02 * np.random.default_rng(1).standard_normal(t.size)
 
 
-# Measured: the fit reports Vs, delta, sigma2, Fs and sigma1 undetermined (delta at 0.005);
-# refitted with them held at their start (Vs 2.9 um/s, delta 1, sigma2 1861 N s/m, ...) its
-# sum of squares is 17,790 noise variances above the free fit's, beyond the
-# likelihood-ratio test's 11.1 (chi-square, 5 degrees of freedom, 5 %), so none is held.
-# The start's Stribeck velocity (`fitting._start._level_stribeck`: a fifth of the 90th
-# percentile speed) lies inside the data's speeds (up to 17 um/s), where the curve's decay
-# is seen; a start for records that never slide would put it beyond them.
-@pytest.mark.xfail(raises=AssertionError, reason=(
-    "open: Vs, delta, sigma2, Fs, sigma1 reported undetermined but not held: holding them "
-    "at the start (Vs inside the data's speeds) fails the likelihood-ratio test "
-    "(17,790 > 11.1)"))
 def test_undetermined_parameters_are_said_so_and_held():
     """Presliding data cannot fix the Stribeck curve's shape (Vs, delta) nor the viscous
     term: they are reported undetermined, held at their start values, with NaN standard
-    errors; every other parameter is determined (relative error below 100 %)."""
+    errors; every other parameter is determined (relative error below 100 %). The start
+    for a record that never slides puts the Stribeck velocity far beyond its speeds
+    (`fitting._start.NEVER_SLIDING`): with it inside them (a fifth of the 90th-percentile
+    speed) the held curve bent the plateau, the hold failed the likelihood-ratio test
+    (17,790 noise variances against 11.1) and the free fit reported Fs = 14,483 N."""
     t, x, F = _presliding_record()
     start = fitting.initial_model("lugre", t, x, F)
     res = fitting.fit(start, t, x, F)
