@@ -370,6 +370,14 @@ def _note(kept, new) -> str | None:
             + ". Each model's cells ran with the code of their time.")
 
 
+def _status_note(cells) -> str | None:
+    """The cells whose jaxfric fit is not converged, with the first words of why."""
+    bad = [f"{c['model']} {c['motion']} {c['n']:.0e}".replace("e+0", "e")
+           for c in cells if c["jaxfric"]["status"] != "successful"]
+    return (f"jaxfric fits NOT converged: {', '.join(bad)} (`stopped` in the JSON says why)."
+            if bad else None)
+
+
 def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
     cells = sorted(kept + new, key=lambda c: (list(MODELS).index(c["model"]), c["n"],
                                               list(MOTIONS).index(c["motion"])))
@@ -386,7 +394,7 @@ def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
         "summary": {"goals": len(every), "met": sum(g["met"] for g in every),
                     "max_steps_jaxfric": max(c["jaxfric"]["steps"] for c in cells)},
     }
-    note = _note(kept, new)
+    note = " ".join(n for n in (_note(kept, new), _status_note(cells)) if n)
     if note:
         result["note"] = note
     Path(args.json).write_text(json.dumps(result, indent=1))

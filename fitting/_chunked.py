@@ -192,8 +192,9 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
                    f"{tol.decrease:g} noise variances, {left:.3g} predicted")
             if left <= bound:
                 return why, True
-            return (why + f", more than chance allows ({bound:.3g}): the linear model does "
-                    "not hold here (a kink of the cost) and the fit may be stuck", False)
+            return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): "
+                    "the linear model does not hold here (a kink of the cost) and the fit "
+                    "may be stuck", False)
         ref_y = ref[2]
         exact = np.sqrt(np.mean(np.asarray(out.resid) ** 2)) <= EXACT_RESIDUAL
         cosine = _max_cosine(out.jac, out.resid)
@@ -206,9 +207,10 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
         # stands, by the linear model or by what the last steps achieved.
         if tol.decrease > 0 and not exact and (min(left, gained) > STALL_PREDICTED
                                                or left > bound):
-            return (f"the solver's own test fired (last step within rtol/atol) before the "
-                    f"fit settled: {left:.3g} noise variances predicted left, and the last "
-                    f"steps still gaining ({_gain_words(gained)})", False)
+            return (f"NOT converged: the solver's own test fired (last step within "
+                    f"rtol/atol) before the fit settled: {left:.3g} noise variances "
+                    f"predicted left, and the last steps still gaining "
+                    f"({_gain_words(gained)})", False)
         return "the solver's own test (last step and residual change within rtol/atol)", True
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"
