@@ -8,16 +8,18 @@ folds are the runs (`fitting._select.run_folds`, leave one run out).
 
 What is searched (`effect_names`): every effect of `jaxfric.effects` with a linear
 parameter not already in the model (those of an angle only on rotary data, those of a load
-only with a load signal), and a richer base model (a GMS with 20 elements).
+only with a load signal), and a richer base model (`_richer`: a GMS with 20 elements
+started at the fitted two-state model's presliding curve).
 
 A long record (at least twice `search_samples` samples) is searched on one sample in
 ``k = n // search_samples``, halved until that copy is faithful (`_faithful_step`: the
-start model simulated on it is within the force's noise of its full-rate simulation). The
+base model, fitted on every sample first, simulated on the copy is within the force's
+noise of its full-rate simulation; that fit is the baseline reported). The
 copy keeps the full-rate velocity and acceleration estimates at its samples, so an
 effect's relation to them is kept; the force is not averaged, which would smear short
-accelerations. The baseline and the final model are then refitted on every sample from
-where the search left them, and the errors of those refits are reported (the held-out
-errors are the search's cross-validation).
+accelerations. The final model is then refitted on every sample from where the search
+left it, and the errors of the fits on every sample are reported (the held-out errors are
+the search's cross-validation).
 """
 
 from collections.abc import Callable, Sequence
@@ -45,11 +47,35 @@ from ._select import (
     select,
     time_block_folds,
 )
-from ._start import initial_model
+from ._start import gms_like, initial_model
 
 
 #: A record of at least twice this many samples is searched on about this many.
 SEARCH_SAMPLES = 5_000
+
+
+#: The elements of the richer base model a diagnosis tries (`_richer`).
+GMS_ELEMENTS = 20
+
+
+def _richer(longest: Data):
+    """The default base-model option, as a function of the fitted plain model: a GMS with
+    `GMS_ELEMENTS` elements started where a fitted two-state model is
+    (`fitting._start.gms_like`: its presliding curve, Stribeck curve and lag), so its
+    refit can only improve on the fit; for another family, read off the longest run
+    (`initial_model`, made once)."""
+    made = []
+
+    def make(plain):
+        gms = gms_like(plain, GMS_ELEMENTS)
+        if gms is not None:
+            return gms
+        if not made:
+            d = longest
+            made.append(initial_model("gms", d.t, d.x, d.F, d.v, n_elements=GMS_ELEMENTS))
+        return made[0]
+
+    return make
 
 
 def _contained(model, fixed) -> set[str]:
@@ -108,7 +134,8 @@ def noise_level(F) -> float:
 
 def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
     """The largest of ``k, k // 2, ..., 1`` whose search copy (one sample in k) is
-    faithful: the start `model` simulated on the copy differs from it simulated on every
+    faithful: `model` (the base model fitted on every sample: the model the search starts
+    from and compares against) simulated on the copy differs from it simulated on every
     sample (at the copy's samples) by at most the force's noise (`noise_level`), RMS. A
     state model integrates its presliding and lag over each sampling step, so a coarser
     copy is another discretisation: where moves start and stop within a few samples, its
@@ -126,7 +153,7 @@ def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
             return k, (f"{words}its simulation differs from the full-rate one by {err:.2g} N "
                        f"RMS, within the force's noise, {sigma:.2g} N")
         words += f"one sample in {k} would change the simulation by {err:.2g} N RMS; "
-        log(f"one sample in {k} would change the start model's simulation by {err:.2g} N "
+        log(f"one sample in {k} would change the base model's simulation by {err:.2g} N "
             f"RMS, more than the force's noise ({sigma:.2g} N): a denser copy")
         k //= 2
     return 1, (f"not subsampled: {words.rstrip('; ')}, more than the force's noise "
@@ -238,10 +265,13 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     new = sorted(o.on - current.on)
     effect = o.fitted.effects[new[0]] if new else None
     judged = np.isfinite(o.z)
-    worth = o.sse < current.sse - o.optimism
+    pair = len(o.names) > 1
+    worth = o.sse < (o.against if np.isfinite(o.against) else current.sse) - o.optimism
     why = (f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
               "; not cross-validated (not among the best training fits)" if worth else
+              "; not cross-validated (its second effect removes no more than fitting noise "
+              "removes, 2 q s^2, beyond its better single)" if pair else
               "; not cross-validated (no more than fitting noise removes, 2 q s^2)")
            + (f"; not physical: {o.physical}" if o.physical else "")
            + (f"; not converged: {o.unconverged}" if o.unconverged else "")
@@ -300,8 +330,10 @@ def diagnose(
       only when ``sigma2`` is held with `fixed`; the effects of an angle only when
       `rotary`, `x` then an angle in rad; those of the load only with `load`).
     - `base_models`: ``[(name, plain model)]`` tried as replacements of the base model by
-      the same rule (default: a GMS with 20 elements; ``()`` for none); when one is
-      added, ``Diagnosis.finding`` says that the base model is the limit here.
+      the same rule (a plain model may also be a function of the fitted plain model that
+      returns one; default `_richer`, a GMS with 20 elements started where the fit is;
+      ``()`` for none); when one is added, ``Diagnosis.finding`` says that the base model
+      is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
     - `max_steps`: per fit. `load`: the transmitted load (N, or N m), for the load effects.
     - `derivatives`, `velocity_window`: how the velocity is estimated from the position
@@ -309,8 +341,8 @@ def diagnose(
       `fitting._derivatives`), and the acceleration `jaxfric.effects.Inertia` reads by the
       same method, unless `a` (m/s^2) is given.
     - `search_samples`: a record of at least twice as many samples (all runs together) is
-      searched on about this many (one sample in k of each run) and the baseline and final
-      model refitted on all; None or 0 searches on every sample.
+      searched on about this many (one sample in k of each run, where faithful) and the
+      final model refitted on all; None or 0 searches on every sample.
     - `log`: called with a line of progress for every fit.
 
     Returns a `Diagnosis`; its models are in the fit representation
@@ -325,28 +357,33 @@ def diagnose(
         str(i + 1) for i in range(full.n_runs)]
     if len(names_of_runs) != full.n_runs:
         raise ValueError(f"run_names: {len(names_of_runs)} names for {full.n_runs} runs")
+    model = to_fit_representation(model)
+    unknown = set(fixed) - set(leaf_names(model))
+    if unknown:
+        raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
+                         f"{sorted(unknown)}; it has {leaf_names(model)}")
     n = full.t.size
     k = n // search_samples if search_samples and n >= 2 * search_samples else 1
-    k, faithful = _faithful_step(full, model, k, log)
+    base_full = None
+    if k > 1:  # the baseline on every sample, and the model the copy is judged with
+        log(f"fitting the base model on all {n} samples ...")
+        base_full = _final_fit(Fitter(full, fixed, max_steps), model,
+                               range(len(getattr(model, "effects", ()))), full, full, log, "")
+        k, faithful = _faithful_step(full, base_full.fit_model, k, log)
+    else:
+        faithful = ""
     copy, pick = full.every(k)
     search = (f"effects searched on one sample in {k} ({copy.t.size} samples; {faithful}); "
               f"the baseline and final model refitted on all {n}") if k > 1 else faithful
     if search:
         log(search)
     folds, by = _folds(folds, pick, copy, rules, log)
-    model = to_fit_representation(model)
-    unknown = set(fixed) - set(leaf_names(model))
-    if unknown:
-        raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
-                         f"{sorted(unknown)}; it has {leaf_names(model)}")
     present = {e.name for e in getattr(model, "effects", ())}
     names = effect_names(effects, present | _contained(model, tuple(fixed)) if not effects
                          else present, rotary, full.load is not None)
     fitter = Fitter(copy, fixed, max_steps, log)
     if base_models is None:
-        lr = copy.longest()
-        base_models = [("GMS with 20 elements",
-                        initial_model("gms", lr.t, lr.x, lr.F, lr.v, n_elements=20))]
+        base_models = [(f"GMS with {GMS_ELEMENTS} elements", _richer(copy.longest()))]
     rounds = select(fitter, model, names, folds, rules,
                     base_options=lambda: list(base_models), log=log)
     masks = _masks(full)
@@ -357,7 +394,8 @@ def diagnose(
             else float("nan")
 
     first = rounds[0].current
-    base_res = _final_fit(fitter, first.fitted, first.on, copy, full, log, "the baseline")
+    base_res = (base_full if base_full is not None and k > 1 else
+                _final_fit(fitter, first.fitted, first.on, copy, full, log, "the baseline"))
     baseline = _step(base_res, [], full, cv_rmse(first), masks)
     steps, added, finding = [], [], ""
     chosen = [r.added for r in rounds if r.added is not None]

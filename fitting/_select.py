@@ -114,12 +114,14 @@ class Option:
     z: float = np.nan  # mean block gain over its standard error
     physical: str = ""  # "" when physical, else why not
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
+    against: float = np.nan  # the training SSE of the model `optimism` is counted from
     fold_preds: list = dataclasses.field(default_factory=list)
     fold_models: list = dataclasses.field(default_factory=list)
     fold_converged: list = dataclasses.field(default_factory=list)
     fold_refs: list = dataclasses.field(default_factory=list)  # as a reference (`reference`)
     unconverged: str = ""  # "" when its fit on every sample converged, else why not
     cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
+    make: object = None  # a base-model option: how its plain model is made (`_replaced`)
 
     def _note(self, what: str, res) -> None:
         if not _converged(res):
@@ -246,14 +248,19 @@ class Fitter:
                 current.fold_refs.append(self.fold_fit(current.fold_models[k], current.on,
                                                        train)[1])
 
-    def cross_validate(self, option: Option, folds) -> None:
-        """Refit `option` from its start (`option.model`) with each fold held out. Not
-        from its fit on all samples: a fit started at an optimum can stop at once (the
-        solver's tolerance test), leaving the held-out blocks predicted by a model that
-        was fitted on them."""
-        if not option.fold_preds:
-            for train, _ in folds:
-                option._fold(*self.fold_fit(option.model, option.on, train), self.last)
+    def cross_validate(self, option: Option, folds, current: Option | None = None) -> None:
+        """Refit `option` from its start (`option.model`) with each fold held out; a
+        base-model option made from the current model (`Option.make`) from the one made
+        from `current`'s fit on that fold's training samples (nested and paired, as
+        `cross_validate_nested`). Not from its fit on all samples: a fit started at an
+        optimum can stop at once (the solver's tolerance test), leaving the held-out
+        blocks predicted by a model that was fitted on them."""
+        if option.fold_preds:
+            return
+        for k, (train, _) in enumerate(folds):
+            start = (_replaced(option.make, current.fold_models[k])
+                     if option.make is not None and current is not None else option.model)
+            option._fold(*self.fold_fit(start, option.on, train), self.last)
 
 
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
@@ -291,8 +298,9 @@ class Round:
 def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: DiagnosisRules,
            base_options: Callable[[], list] = lambda: [], log=None) -> list[Round]:
     """Forward selection from model `start` (plain) over effect names `candidates` and the
-    base models `base_options()` gives (``[(name, plain model)]``); see the module
-    docstring. Returns the rounds; the last round's ``current`` is the final model."""
+    base models `base_options()` gives (``[(name, plain model or maker)]``, `_replaced`);
+    see the module docstring. Returns the rounds; the last round's ``current`` is the
+    final model."""
     log = log or (lambda *_: None)
     data = fitter.data
     names = [n for n in candidates if switchable(n)]
@@ -316,10 +324,9 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             options.append(Option((n,), model, current.on | {i}))
         if not switched:
-            for bname, bmodel in base_options():
-                keep = tuple(current.fitted.effects)
-                options.append(Option((bname,), _params.to_fit_representation(bmodel)
-                                      + keep, current.on, base=True))
+            for bname, make in base_options():
+                options.append(Option((bname,), _replaced(make, current.fitted), current.on,
+                                      base=True, make=make))
         for o in options:
             _refit(fitter, o, current, log)
         options.sort(key=lambda o: o.sse)
@@ -328,19 +335,32 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         chosen = _cross_validate(fitter, current, best, folds, rules, log)
         if chosen is None and len(rounds) + 2 <= rules.max_added:
             singles = [o for o in best if not o.base]
-            pairs = [_pair(a, b, current) for a, b in itertools.combinations(singles, 2)]
-            for o in pairs:
+            pairs = [(_pair(a, b, current), min(a, b, key=lambda o: o.sse))
+                     for a, b in itertools.combinations(singles, 2)]
+            for o, _ in pairs:
                 _refit(fitter, o, current, log)
-            _optimism(fitter, current, pairs)
-            options += pairs
-            chosen = _cross_validate(fitter, current, [o for o in pairs if o.sse < current.sse
-                                                       - o.optimism], folds, rules, log)
+            for o, single in pairs:  # what its other effect adds to its better single
+                _optimism(fitter, single, [o])
+            options += [o for o, _ in pairs]
+            chosen = _cross_validate(fitter, current, [o for o, _ in pairs
+                                                       if o.sse < o.against - o.optimism],
+                                     folds, rules, log)
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
         switched |= chosen.base
         current = chosen
     return rounds
+
+
+def _replaced(make, model):
+    """`model` (a fit with its effects) with its plain model replaced by `make`: a plain
+    model, or a function of the fitted plain model that returns one (a richer model that
+    starts where the fit is, `fitting._start.gms_like`)."""
+    effects = tuple(getattr(model, "effects", ()))
+    plain = model.without_effects() if effects else model
+    new = _params.to_fit_representation(make if isinstance(make, eqx.Module) else make(plain))
+    return new + effects if effects else new
 
 
 def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
@@ -365,7 +385,7 @@ def _optimism(fitter: Fitter, current: Option, options: list[Option]) -> None:
     s2 = current.sse / max(n - p, 1)
     for o in options:
         q = max(fitter.n_free(o.model, o.on) - p, 1)
-        o.optimism = 2.0 * q * s2
+        o.optimism, o.against = 2.0 * q * s2, current.sse
 
 
 def _pair(a: Option, b: Option, current: Option) -> Option:
@@ -385,7 +405,7 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         if names and not o.base:
             fitter.cross_validate_nested(o, current, folds, names)
         else:
-            fitter.cross_validate(o, folds)
+            fitter.cross_validate(o, folds, current)
         judge(o, current, folds, fitter.data.F)
         log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else "")

@@ -247,3 +247,16 @@ def steady_sliding_weights(t, x, F, v=None) -> np.ndarray:
     vel = velocity(t, x) if v is None else np.asarray(v, dtype=np.float64)
     x90 = swing_travel(x, F)
     return steady_weights(t, x, vel, 2.0 * x90 if x90 is not None else 0.1 * _strokes(x))
+
+
+def gms_like(model, n_elements: int):
+    """A GMS with `n_elements` elements that starts where a fitted two-state `model` (any
+    presliding shape family) is: its virgin curve interpolates the model's presliding curve
+    (`jaxfric.GMS.from_shape`), with the model's Stribeck curve, ``sigma2`` and friction lag
+    ``C``. None for a model without a presliding shape (a GMS, LuGre or Tustin model).
+    A richer base model started here can only improve on the fitted one, instead of
+    landing in an optimum of its own from a start read off the data."""
+    shape = getattr(model, "shape", None)
+    if shape is None or not isinstance(model, jaxfric.TwoState):
+        return None
+    return jaxfric.GMS.from_shape(shape, model.stribeck, model.sigma2, model.C, n_elements)
