@@ -15,6 +15,7 @@ threads: divided by the wall time, the cores it kept busy). Each pair of runs is
 machine is noisy), the JSON every run.
 
     python benchmarks/diagnose_speed.py [--sizes 1e4,1e5] [--repeats 3] [--json OUT.json]
+        [--note "what else ran"]
 
 Prints a table and writes JSON (default benchmarks/diagnose_speed.json).
 """
@@ -94,6 +95,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=3,
                     help="runs of each size and cache state (default %(default)s)")
     ap.add_argument("--json", default=str(HERE / "diagnose_speed.json"))
+    ap.add_argument("--note", default="", help="a note kept in the JSON (e.g. the load)")
     args = ap.parse_args(argv)
     sizes = [int(float(s)) for s in args.sizes.split(",")]
     runs = []
@@ -130,7 +132,9 @@ def main(argv=None) -> int:
     out = {"machine": machine_facts(),
            "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"),
            "command": "python benchmarks/diagnose_speed.py " + " ".join(argv or sys.argv[1:]),
-           "goal_s_at_1e5": GOAL_S, "repeats": args.repeats, "rows": rows, "runs": runs}
+           "goal_s_at_1e5": GOAL_S, "repeats": args.repeats, "rows": rows, "runs": runs,
+           **({"note": args.note} if args.note else {}),
+           "load_average_end": list(os.getloadavg())}
     Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     print(f"wrote {args.json}")
     return 0
