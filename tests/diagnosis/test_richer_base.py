@@ -1,0 +1,76 @@
+"""The diagnosis's richer base model (`fitting._start.gms_like`, `fitting._select`): a GMS
+started at the fitted two-state model, in each fold at the current model's fit on that
+fold's training samples (nested, as the effects are), never at a fit that saw the
+held-out blocks. Fast: no fits."""
+
+import equinox as eqx
+import numpy as np
+import pytest
+
+import jaxfric
+from fitting import _select as S
+from fitting._start import gms_like
+from jaxfric import effects as fx, paper
+
+
+def _two_state(fs=26.0, l1=4e-6):
+    shape = jaxfric.NormalizedPaperShape.from_paper(paper.shape(), paper.stribeck().Fs)
+    shape = eqx.tree_at(lambda s: s.l1, shape, np.float64(l1))
+    stribeck = jaxfric.Stribeck(Fs=fs, Fc=0.8 * fs, Vs=1e-3, delta=1.0)
+    return jaxfric.TwoState(stribeck=stribeck, shape=shape.to_paper(fs), sigma2=50.0, C=9.0)
+
+
+def test_gms_like_takes_the_fitted_curves_and_only_from_a_presliding_shape():
+    m = _two_state()
+    g = gms_like(m, 20)
+    assert isinstance(g, jaxfric.GMS) and g.nu.shape == (20,)
+    assert float(g.stribeck.Fs) == float(m.stribeck.Fs) and float(g.C) == float(m.C)
+    assert float(g.sigma2) == float(m.sigma2)
+    # its virgin curve is the two-state model's presliding curve at the breakpoints
+    lb = float(m.shape.l1) * np.geomspace(1.0, 1e-3, 20)
+    pi0 = [float(np.sum(g.k * np.minimum(xi, g.nu / g.k))) for xi in lb]
+    np.testing.assert_allclose(pi0, np.asarray(m.shape.pi(lb, m.stribeck.Fs)), rtol=1e-9)
+    assert gms_like(g, 20) is None
+    assert gms_like(jaxfric.Tustin(stribeck=m.stribeck, sigma2=50.0), 20) is None
+
+
+def test_a_base_option_keeps_the_effects_and_replaces_the_plain_model():
+    m = _two_state() + (fx.Offset(offset=0.5),)
+    new = S._replaced(lambda plain: gms_like(plain, 5), m)
+    assert isinstance(new.without_effects(), jaxfric.GMS)
+    assert [e.name for e in new.effects] == ["offset"]
+    assert float(new.effects[0].offset) == 0.5
+    fixed = jaxfric.Tustin(stribeck=_two_state().stribeck, sigma2=1.0)  # a plain model
+    assert isinstance(S._replaced(fixed, m).without_effects(), jaxfric.Tustin)
+
+
+def test_a_base_options_fold_fits_start_from_the_current_models_fold_fits():
+    """Each fold's start is made from the current model's fit on that fold's training
+    samples (what `make` sees), not from the option's start on every sample."""
+    folds = S.time_block_folds(np.arange(100.0), 4, 2)
+    current = S.Option(("base",), None, frozenset())
+    current.fold_models = [_two_state(fs=20.0 + k) + (fx.Offset(offset=0.0),)
+                           for k in range(len(folds))]
+    seen = []
+
+    def make(plain):
+        seen.append(float(plain.stribeck.Fs))
+        return gms_like(plain, 5)
+
+    option = S.Option(("GMS",), "the start on every sample", frozenset(), base=True,
+                      make=make)
+    fitter = S.Fitter(None)
+    starts = []
+
+    def fold_fit(model, on, train):
+        starts.append(model)
+        fitter.last = None
+        return model, np.zeros(100)
+
+    fitter.fold_fit = fold_fit
+    option._fold = lambda *args: None
+    fitter.cross_validate(option, folds, current)
+    assert seen == [20.0, 21.0]
+    assert all(isinstance(s.without_effects(), jaxfric.GMS) for s in starts)
+    assert [float(s.without_effects().stribeck.Fs) for s in starts] == pytest.approx(
+        [20.0, 21.0])
