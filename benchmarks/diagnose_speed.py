@@ -15,7 +15,7 @@ threads: divided by the wall time, the cores it kept busy). Each pair of runs is
 machine is noisy), the JSON every run.
 
     python benchmarks/diagnose_speed.py [--sizes 1e4,1e5] [--repeats 3] [--json OUT.json]
-        [--note "what else ran"]
+        [--note "what else ran"] [--caches empty,filled]
 
 Prints a table and writes JSON (default benchmarks/diagnose_speed.json).
 """
@@ -96,6 +96,8 @@ def main(argv=None) -> int:
                     help="runs of each size and cache state (default %(default)s)")
     ap.add_argument("--json", default=str(HERE / "diagnose_speed.json"))
     ap.add_argument("--note", default="", help="a note kept in the JSON (e.g. the load)")
+    ap.add_argument("--caches", default="empty,filled",
+                    help="the cache states run, in order (default %(default)s)")
     args = ap.parse_args(argv)
     sizes = [int(float(s)) for s in args.sizes.split(",")]
     runs = []
@@ -106,7 +108,7 @@ def main(argv=None) -> int:
             samples = sum(1 for _ in path.open()) - 1
             for k in range(args.repeats):
                 cache = folder / f"cache_{n}_{k}"
-                for cache_state in ("empty", "filled"):
+                for cache_state in args.caches.split(","):
                     print(f"diagnosing {samples} samples, compilation cache {cache_state} "
                           f"(run {k + 1} of {args.repeats}) ...", flush=True)
                     r = _run(path, cache, folder / f"d_{n}.json")
