@@ -269,9 +269,6 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     worth = o.sse < (o.against if np.isfinite(o.against) else current.sse) - o.optimism
     why = (f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
-              f"; not cross-validated (on the samples it was fitted on, block by block, "
-              f"z = {o.train_z:.2f}, below the rule's: held out it gains less)"
-              if np.isfinite(o.train_z) else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (its second effect removes no more than fitting noise "
               "removes, 2 q s^2, beyond its better single)" if pair else
@@ -457,9 +454,7 @@ def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, 
         warnings["final"] = _plausible(final, full)
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
-               "z": None if not np.isfinite(o.z) else o.z,
-               "z_in_sample": None if not np.isfinite(o.train_z) else o.train_z,
-               "physical": not o.physical,
+               "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
                "converged": not o.unconverged, "fold_fits_at_limit": o.cut or None,
                "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
     if finding:

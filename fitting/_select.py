@@ -16,9 +16,7 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    rest of the model at the current fit;
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
    q added coordinates remove when they fit only noise) is not cross-validated; of the
-   others, the `tried` with the lowest training error are, where their fits on every
-   sample pass the rule's test in sample (`_promising`: held out, a fit gains less):
-   refitted with each fold held
+   others, the `tried` with the lowest training error are: refitted with each fold held
    out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
    `time_block_folds` makes the default), each from the current model's own fit on that
    fold's training samples, its grid start picked again on those samples
@@ -32,8 +30,7 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    base-model change that removes more error less consistently does not push out an
    effect the data support more firmly). Fold fits are compared at equal effort
    (`Fitter.reference`); one stopped at its step limit is judged where it stopped;
-4. when none qualifies, the pairs of the `tried` options are refitted; a pair that removes
-   more than ``2 q s^2`` beyond its better single is tested the same way.
+4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
 """
@@ -118,7 +115,6 @@ class Option:
     physical: str = ""  # "" when physical, else why not
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     against: float = np.nan  # the training SSE of the model `optimism` is counted from
-    train_z: float = np.nan  # the rule's z of its fit on every sample (`_promising`)
     fold_preds: list = dataclasses.field(default_factory=list)
     fold_models: list = dataclasses.field(default_factory=list)
     fold_converged: list = dataclasses.field(default_factory=list)
@@ -267,39 +263,21 @@ class Fitter:
             option._fold(*self.fold_fit(start, option.on, train), self.last)
 
 
-def _gain_z(ref, preds, folds, F: np.ndarray) -> tuple[float, float]:
-    """``(gain, z)`` of predictions `preds` over `ref` (per fold, indexed by fold):
-    the SSE removed in every block (`_blocks`), as a share of `ref`'s, and the mean block
-    gain over its standard error."""
-    diffs, total = [], 0.0
-    for k, idx in _blocks(folds):
-        r0 = ref[k][idx] - F[idx]
-        r1 = preds[k][idx] - F[idx]
-        diffs.append(float(r0 @ r0 - r1 @ r1))
-        total += float(r0 @ r0)
-    d = np.asarray(diffs)
-    se = np.std(d, ddof=1) / np.sqrt(d.size) if d.size > 1 else np.inf
-    return (float(d.sum() / total) if total > 0 else 0.0,
-            float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0))
-
-
 def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
     """Set `option`'s held-out gain over `current` (share of the current model's held-out
     SSE) and ``z``: the mean block gain over its standard error. The current model's
     held-out predictions are its `fold_refs` when set (`Fitter.reference`)."""
     ref = current.fold_refs or current.fold_preds
-    option.gain, option.z = _gain_z(ref, option.fold_preds, folds, F)
-
-
-def _promising(option: Option, current: Option, folds, F: np.ndarray, z: float) -> bool:
-    """Whether `option`'s fit on every sample beats `current`'s, block by block, by at
-    least `z` standard errors (the rule's statistic on the training fits). Held out, a fit
-    gains less than on the samples it was fitted on, so an option that does not pass in
-    sample is not expected to pass held out, and is not cross-validated; sets its
-    ``train_z``."""
-    option.train_z = _gain_z([current.pred] * len(folds), [option.pred] * len(folds),
-                             folds, F)[1]
-    return option.train_z >= z
+    diffs, total = [], 0.0
+    for k, idx in _blocks(folds):
+        r0 = ref[k][idx] - F[idx]
+        r1 = option.fold_preds[k][idx] - F[idx]
+        diffs.append(float(r0 @ r0 - r1 @ r1))
+        total += float(r0 @ r0)
+    d = np.asarray(diffs)
+    se = np.std(d, ddof=1) / np.sqrt(d.size) if d.size > 1 else np.inf
+    option.gain = float(d.sum() / total) if total > 0 else 0.0
+    option.z = float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0)
 
 
 def held_out_sse(option: Option, folds, F: np.ndarray) -> float:
@@ -354,9 +332,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         options.sort(key=lambda o: o.sse)
         _optimism(fitter, current, options)
         best = [o for o in options if o.sse < current.sse - o.optimism][:rules.tried]
-        chosen = _cross_validate(fitter, current, [
-            o for o in best if _promising(o, current, folds, data.F, rules.z)],
-            folds, rules, log)
+        chosen = _cross_validate(fitter, current, best, folds, rules, log)
         if chosen is None and len(rounds) + 2 <= rules.max_added:
             singles = [o for o in best if not o.base]
             pairs = [(_pair(a, b, current), min(a, b, key=lambda o: o.sse))
@@ -366,9 +342,9 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             for o, single in pairs:  # what its other effect adds to its better single
                 _optimism(fitter, single, [o])
             options += [o for o, _ in pairs]
-            chosen = _cross_validate(fitter, current, [
-                o for o, _ in pairs if o.sse < o.against - o.optimism
-                and _promising(o, current, folds, data.F, rules.z)], folds, rules, log)
+            chosen = _cross_validate(fitter, current, [o for o, _ in pairs
+                                                       if o.sse < o.against - o.optimism],
+                                     folds, rules, log)
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
