@@ -253,10 +253,12 @@ def gms_like(model, n_elements: int):
     """A GMS with `n_elements` elements that starts where a fitted two-state `model` (any
     presliding shape family) is: its virgin curve interpolates the model's presliding curve
     (`jaxfric.GMS.from_shape`), with the model's Stribeck curve, ``sigma2`` and friction lag
-    ``C``. None for a model without a presliding shape (a GMS, LuGre or Tustin model).
-    A richer base model started here can only improve on the fitted one, instead of
-    landing in an optimum of its own from a start read off the data."""
+    ``C``. None for a model without a presliding shape (a GMS, LuGre or Tustin model),
+    and for a curve that is not concave at the breakpoints (a GMS element of negative
+    stiffness). A richer base model started here starts near the fitted one, instead of
+    in an optimum of its own read off the data."""
     shape = getattr(model, "shape", None)
     if shape is None or not isinstance(model, jaxfric.TwoState):
         return None
-    return jaxfric.GMS.from_shape(shape, model.stribeck, model.sigma2, model.C, n_elements)
+    gms = jaxfric.GMS.from_shape(shape, model.stribeck, model.sigma2, model.C, n_elements)
+    return gms if bool(np.all(np.asarray(gms.k) > 0)) else None

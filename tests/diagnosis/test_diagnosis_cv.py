@@ -61,10 +61,7 @@ def test_point_to_point_clean_file_gets_no_effect():
 
 
 @pytest.mark.parametrize(("truth", "hidden"), [
-    pytest.param("gms_power", "cogging", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError,
-        reason="measured: cogging is added first, then a position load (added: cogging, "
-               "position_load)")),
+    ("gms_power", "cogging"),
     pytest.param("lugre", "offset", marks=pytest.mark.xfail(
         strict=True, raises=AssertionError,
         reason="measured: a cogging is added first, then the offset (added: cogging, "

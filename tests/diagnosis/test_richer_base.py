@@ -74,3 +74,15 @@ def test_a_base_options_fold_fits_start_from_the_current_models_fold_fits():
     assert all(isinstance(s.without_effects(), jaxfric.GMS) for s in starts)
     assert [float(s.without_effects().stribeck.Fs) for s in starts] == pytest.approx(
         [20.0, 21.0])
+
+
+def test_a_curve_that_is_not_concave_has_no_gms_start():
+    """A GMS element cannot have negative stiffness: a presliding curve that bends the
+    wrong way (here a power law of exponent below 1) gives no start (the diagnosis then
+    reads the GMS off the data)."""
+    m = _two_state()
+    convex = jaxfric.TwoState(stribeck=m.stribeck, shape=jaxfric.PowerShape(l1=4e-6, n=0.5),
+                              sigma2=50.0, C=9.0)
+    assert gms_like(convex, 20) is None
+    concave = eqx.tree_at(lambda t: t.shape, convex, jaxfric.PowerShape(l1=4e-6, n=3.0))
+    assert isinstance(gms_like(concave, 20), jaxfric.GMS)
