@@ -25,11 +25,12 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``) and its fit on
-   every sample converged; the qualifying option with the largest ``z`` is added (the
-   strongest evidence first, as forward selection by the partial F statistic: a
-   base-model change that removes more error less consistently does not push out an
-   effect the data support more firmly). Fold fits are compared at equal effort
-   (`Fitter.reference`); one stopped at its step limit is judged where it stopped;
+   every sample ended by a rule of its own (`_converged`); the qualifying option with
+   the largest ``z`` is added (the strongest evidence first, as forward selection by
+   the partial F statistic: a base-model change that removes more error less
+   consistently does not push out an effect the data support more firmly). Fold fits
+   are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
+   judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
 The round repeats until nothing qualifies or `max_added` are in.
@@ -141,8 +142,19 @@ class Option:
 
 
 def _converged(res) -> bool:
-    """Whether a fit's stopping rule fired (not its step limit, not a failed solve)."""
-    return bool(np.asarray(res.result == optx.RESULTS.successful))
+    """Whether a fit ended by a rule of its own, its values final: converged, or stopped
+    where its steps gain (next to) nothing although its linear model predicts more
+    (``stopped`` begins "NOT converged: " in `fitting._chunked`: the steps stalled, or the
+    solver's own step test fired first; a kink of the cost, a local minimum of the cost
+    as it is; what that point predicts held out is for the rule to judge). Not a fit cut
+    at its step limit (it would go on), a failed solve, or one failing `fit`'s own checks
+    (R2, a parameter pinned at a bound: "; NOT converged" further on)."""
+    if bool(np.asarray(res.result == optx.RESULTS.successful)):
+        return True
+    stopped = str(res.stopped)
+    return (bool(np.asarray(res.result == optx.RESULTS.nonlinear_divergence))
+            and stopped.startswith("NOT converged: ") and "; NOT converged" not in stopped
+            and bool(np.isfinite(np.asarray(res.rmse))))
 
 
 class Fitter:
