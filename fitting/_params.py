@@ -57,9 +57,10 @@ def default_props(model, free: Iterable[str] | None = None):
     """The default properties pytree for `model` (see the module docstring).
 
     Each parameter's transform follows the constraint declared on its field: positive
-    quantities (Fs, Fc, Vs, delta, sigma0/1/2, C, l1, beta, k_i, ...) get `Exp` (log scale),
-    ``alpha`` a `Sigmoid` on (0, 1), the GMS weights ``nu`` a `Simplex`, PowerShape's ``n``
-    `Exp` above 1, unconstrained ones `Identity`. Every ``scale`` is left to the starting
+    quantities (Fs, Fc, Vs, sigma0/1/2, C, l1, beta, k_i, ...) get `Exp` (log scale),
+    ``alpha`` a `Sigmoid` on (0, 1), ``delta`` one on (0, `jaxfric._stribeck.DELTA_MAX`),
+    the GMS weights ``nu`` a `Simplex`, PowerShape's ``n`` `Exp` above 1, unconstrained
+    ones `Identity`. Every ``scale`` is left to the starting
     value. `free`: names (or groups declared on the fields: ``"stribeck"``, ``"shape"``) to
     fit; ``None`` frees everything but a scalar ``per_run="relative"`` parameter (a drift's
     starting level: in a fit of one run it cannot be told from the base friction, so it is

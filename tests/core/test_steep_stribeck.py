@@ -1,8 +1,9 @@
-"""A steep Stribeck curve (``delta`` in the hundreds, as fits on short, strong accelerations
-reach) at speeds of a few ``Vs``: ``(|v|/Vs)**delta`` overflows there while
-``exp(-(|v|/Vs)**delta)`` is exactly 0. The force is ``Fc`` and its derivatives are finite
-(``inf * 0`` made them NaN, which stopped every later fit at its first step), on the JAX
-path and in the forward kernel alike, and the curve's values are unchanged elsewhere."""
+"""A steep Stribeck curve (``delta`` in the hundreds: a model given for simulation may
+have any ``delta``; a fit stays below `jaxfric._stribeck.DELTA_MAX`) at speeds of a few
+``Vs``: ``(|v|/Vs)**delta`` overflows there while ``exp(-(|v|/Vs)**delta)`` is exactly 0.
+The force is ``Fc`` and its derivatives are finite (``inf * 0`` made them NaN, which
+stopped every later fit at its first step), on the JAX path and in the forward kernel
+alike, and the curve's values are unchanged elsewhere."""
 
 import equinox as eqx
 import jax

@@ -110,16 +110,45 @@ def test_viscous_is_searched_only_when_the_models_own_is_held():
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "measured (main with delta bounded): offset and inertia found, then asymmetry added "
+    "(held-out RMSE 0.05774 -> 0.05753 N)"))
 def test_two_hidden_effects_both_found():
     assert_found(["offset", "inertia"])
 
 
 #: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
 #: Strict: when one starts to pass, the test fails until it is taken off this list.
-KNOWN_FAILURES: dict[tuple[str, int, float], str] = {}
+_PICKED = "measured (main with delta bounded): the largest z is added first, "
+_EXTRA = "measured (main with delta bounded): found, then an effect not hidden is added: "
+KNOWN_FAILURES: dict[tuple[str, int, float], str] = {
+    ("viscous", 1, 2.0): _PICKED + "quadratic_drag (held-out gain 0.62, z 3.94) before "
+    "viscous (gain 0.97, z 3.45), which round 2 adds",
+    ("offset", 1, 2.0): _PICKED + "asymmetry (gain 0.88, z 9.52) before offset (gain 0.999, "
+    "z 8.89), which round 2 adds",
+    ("stribeck", 0, 1.0): _EXTRA + "quadratic_drag (held-out RMSE 0.05418 -> 0.05404 N)",
+    ("offset", 0, 1.0): _EXTRA + "asymmetry (held-out RMSE 0.05784 -> 0.0577 N)",
+    ("asymmetry", 0, 1.0): _EXTRA + "offset (held-out RMSE 0.0582 -> 0.05797 N)",
+    ("stribeck", 1, 2.0): "measured (main with delta bounded): the Stribeck hump leads "
+    "(gain 0.988, z 7.83) but its fit on every sample and two fold fits stop at "
+    "max_steps = 150: not converged, nothing added",
+    ("presliding", 0, 1.0): "measured (main with delta bounded): presliding is no effect "
+    "candidate; the GMS-20 base leads (gain 1.000, z 8.38) but its fits stop at "
+    "max_steps = 150: nothing added",
+    ("presliding", 1, 2.0): "measured (main with delta bounded): presliding is no effect "
+    "candidate; the GMS-20 base is added (z 6.14), then quadratic_drag",
+}
 
 #: Pairs of hidden effects the diagnosis does not separate yet (README, "Limits").
-KNOWN_PAIR_FAILURES: dict[tuple[str, ...], str] = {}
+KNOWN_PAIR_FAILURES: dict[tuple[str, ...], str] = {
+    ("quadratic_drag", "offset"): _EXTRA + "asymmetry, then friction_lag (held-out RMSE "
+    "0.05808 -> 0.05788 -> 0.05673 N)",
+    ("asymmetry", "position_dependence"): _PICKED + "offset (gain 0.70, z 3.88) before "
+    "asymmetry (gain 0.81, z 3.66); then position_dependence and asymmetry (added: offset, "
+    "position_dependence, asymmetry)",
+    ("cogging", "drift"): _EXTRA + "friction_lag, then quadratic_drag (held-out RMSE "
+    "0.05895 -> 0.05826 -> 0.05758 N)",
+}
 
 
 @pytest.mark.slow

@@ -18,6 +18,7 @@ import fitting
 import jaxfric
 from fitting import _params
 from jaxfric import paper
+from jaxfric._stribeck import DELTA_MAX
 
 
 UM = 1e-6
@@ -118,9 +119,14 @@ def test_vector_map_and_scaling():
     model = _params.to_fit_representation(paper.two_state())
     props = fitting.default_props(model)
     layout = _params.make_layout(model, props)
-    y = _params.to_vector(model, layout)
-    # SI values from 4.3e-9 (l1, m/N) to 54 (sigma2): coordinates of order one.
-    assert np.all(np.abs(np.asarray(y)) < 3.0)
+    y = np.asarray(_params.to_vector(model, layout))
+    # SI values from 4.3e-9 (l1, m/N) to 54 (sigma2): coordinates of order one. delta's
+    # Sigmoid on (0, DELTA_MAX) has no reference scale: near 0 its coordinate is
+    # log(delta / DELTA_MAX), a log scale offset by log(DELTA_MAX), with the same steps.
+    is_delta = np.asarray(layout.coordinate_leaf()) == layout.names.index("delta")
+    assert np.all(np.abs(y[~is_delta]) < 3.0)
+    delta = float(model.stribeck.delta)
+    assert y[is_delta] == pytest.approx(np.log(delta / (DELTA_MAX - delta)), rel=1e-12)
     back = _params.from_vector(y, model, layout)
     for a, b in zip(jax.tree.leaves(back), jax.tree.leaves(model)):
         np.testing.assert_allclose(a, b, rtol=1e-12)
