@@ -25,10 +25,11 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 3. an option qualifies when its held-out gain, block by block (each contiguous run of a
    fold's test samples is a block), has a mean above `z` standard errors, every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``) and its fit on
-   every sample ended by a rule of its own (`_converged`); the qualifying option with
-   the largest ``z`` is added (the strongest evidence first, as forward selection by
-   the partial F statistic: a base-model change that removes more error less
-   consistently does not push out an effect the data support more firmly). Fold fits
+   every sample ended by a rule of its own (`_converged`); of those that qualify, the
+   one with the largest held-out gain is added (``z`` decides whether an option
+   qualifies, the held-out error which is added: forward selection by cross-validated
+   error; an effect that predicts more of the held-out error is not pushed out by one
+   that predicts less, more evenly). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -408,7 +409,8 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
 
 
 def _cross_validate(fitter, current, options, folds, rules, log):
-    """Cross-validate `current` and `options`; the qualifying one of largest ``z``."""
+    """Cross-validate `current` and `options`; the qualifying one of largest held-out
+    gain."""
     fitter.cross_validate(current, folds)
     fitter.reference(current, folds)
     for o in options:
@@ -426,4 +428,4 @@ def _cross_validate(fitter, current, options, folds, rules, log):
     # An option whose fit on every sample did not converge has no final values to check
     # or add; its fold fits are evidence at equal effort (`Fitter.reference`).
     good = [o for o in options if o.z >= rules.z and not o.physical and not o.unconverged]
-    return max(good, key=lambda o: o.z) if good else None
+    return max(good, key=lambda o: o.gain) if good else None
