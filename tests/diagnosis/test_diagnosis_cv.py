@@ -38,10 +38,13 @@ def _true_mass(t_fine_dt=2e-4):
 
 
 def test_point_to_point_mass_error_is_found_and_recovered():
-    """The mass is added (then, the base model's presliding mismatch being most of what is
-    left, a GMS base model may be too), with its value, and the held-out error falls."""
+    """The mass is the first effect added, with its value, and the held-out error falls;
+    a GMS base model may be added before or after it (the two-state model's presliding
+    mismatch is most of the residual: the base model is the limit here), as in the
+    other point-to-point and diagnosis-motion tests."""
     d = _diagnose(*_p2p(("inertia",)))
-    assert d.final.added[0] == "inertia", d.summary()
+    assert [n for n in d.final.added if not n.startswith("GMS")][:1] == ["inertia"], \
+        d.summary()
     mass = float(next(e for e in d.model.effects if e.name == "inertia").mass)
     assert mass == pytest.approx(_true_mass(), rel=0.2)
     assert d.final.rmse_holdout < d.baseline.rmse_holdout
