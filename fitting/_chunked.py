@@ -175,8 +175,9 @@ class _Progress:
 
 
 def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tolerances):
-    """``(why, converged)`` after this chunk, ``why`` in words, or ``(None, False)`` to go
-    on. `ref` is ``(steps, cost, y)`` of the fit at least `CHUNK` steps before (or at its
+    """``(why, kind)`` after this chunk, ``why`` in words and ``kind`` one of
+    ``"converged"``, ``"kink"``, ``"stuck"`` (`fitting._result.STOPS`), or ``(None, None)``
+    to go on. `ref` is ``(steps, cost, y)`` of the fit at least `CHUNK` steps before (or at its
     start): the cost and step rules look back that far whatever the chunks' sizes, so the
     decision does not depend on how fast the machine ran them."""
     left = float(out.left)
@@ -184,24 +185,24 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
         if left <= tol.decrease:
             return (f"the Gauss-Newton decrease left is {left:.2g} noise variances "
                     f"(decrease = {tol.decrease:g}): nothing the data can tell is left",
-                    True)
+                    "converged")
         gained = float(out.gained)
         bound = _chance_bound(out.jac)
         if tol.decrease > 0 and gained <= tol.decrease:
             why = (f"the steps stalled: the last {STALL_STEPS} gained under "
                    f"{tol.decrease:g} noise variances, {left:.3g} predicted")
             if left <= bound:
-                return why, True
+                return why, "converged"
             return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): "
                     "the linear model does not hold here (a kink of the cost) and the fit "
-                    "may be stuck", False)
+                    "may be stuck", "kink")
         ref_y = ref[2]
         exact = np.sqrt(np.mean(np.asarray(out.resid) ** 2)) <= EXACT_RESIDUAL
         cosine = _max_cosine(out.jac, out.resid)
         if np.array_equal(np.asarray(out.y), np.asarray(ref_y)) and not exact and (
                 cosine > STUCK_COSINE):
             return (f"the solver's own test fired without moving the fit although the "
-                    f"gradient is not nil (cosine {cosine:.1e}): the fit is stuck", False)
+                    f"gradient is not nil (cosine {cosine:.1e}): the fit is stuck", "stuck")
         # The solver's own test (a step within rtol/atol) fires in a crawl as well as at
         # an optimum: it counts only where the fit is within a noise variance of where it
         # stands, by the linear model or by what the last steps achieved.
@@ -210,19 +211,21 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
             return (f"NOT converged: the solver's own test fired (last step within "
                     f"rtol/atol) before the fit settled: {left:.3g} noise variances "
                     f"predicted left, and the last steps still gaining "
-                    f"({_gain_words(gained)})", False)
-        return "the solver's own test (last step and residual change within rtol/atol)", True
+                    f"({_gain_words(gained)})", "kink")
+        return ("the solver's own test (last step and residual change within rtol/atol)",
+                "converged")
     ref_steps, ref_cost, ref_y = ref
     window = f"the last {ref_steps} steps"
     if np.isfinite(ref_cost) and ref_cost - cost <= 0:
         cosine = _max_cosine(out.jac, out.resid)
         if cosine <= STUCK_COSINE:
             return (f"no step lowers the cost, and the gradient is nil (cosine "
-                    f"{cosine:.1e}): at the optimum", True)
+                    f"{cosine:.1e}): at the optimum", "converged")
         return (f"no step lowers the cost although the gradient is not nil (cosine "
-                f"{cosine:.1e}): the fit is stuck", False)
+                f"{cosine:.1e}): the fit is stuck", "stuck")
     if np.isfinite(ref_cost) and ref_cost - cost <= tol.ftol * ref_cost:
-        return f"the cost fell by less than ftol = {tol.ftol:g} (relative) over {window}", True
+        return (f"the cost fell by less than ftol = {tol.ftol:g} (relative) over {window}",
+                "converged")
     resid = np.asarray(out.resid)
     moved = float(np.linalg.norm(np.asarray(out.jac) @ (np.asarray(out.y) - np.asarray(ref_y))))
     # (A window in which the fit has not moved says nothing: with max_steps=1 the only
@@ -230,10 +233,10 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
     if moved <= tol.xtol * float(np.linalg.norm(resid)) and not np.array_equal(
             np.asarray(out.y), np.asarray(ref_y)):
         return (f"{window} changed the prediction by less than xtol = {tol.xtol:g} of the "
-                "residual", True)
+                "residual", "converged")
     if _max_cosine(out.jac, resid) <= tol.gtol:
-        return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", True
-    return None, False
+        return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", "converged"
+    return None, None
 
 
 def _chance_bound(jac) -> float:
@@ -323,12 +326,15 @@ def _reference(history: list, steps: int) -> tuple:
 @dataclasses.dataclass
 class Solved:
     """What `solve_chunked` returns: the core arrays, why it stopped, the problem as
-    finally solved (with any undetermined leaves held) and the names of those leaves."""
+    finally solved (with any undetermined leaves held), the names of those leaves and the
+    kind of stop before `fit`'s checks (``"converged"``, ``"kink"``, ``"stuck"``,
+    ``"max_steps"``, ``"failed"``: `fitting._result.final_stop`)."""
 
     core: _Core
     stopped: str
     problem: _Problem
     undetermined: tuple[str, ...] = ()
+    stop: str = "failed"
 
 
 def _run(problem: _Problem, y, d, data: Dataset, solver, budget: int, step_size,
@@ -374,7 +380,7 @@ def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset
     return core, start
 
 
-def _hold_accepted(free_fit, reason, converged, result, out, held, n_obs: int) -> bool:
+def _hold_accepted(free_fit, reason, kind, result, out, held, n_obs: int) -> bool:
     """Whether the fit with the undetermined leaves held at their start stands: it stopped
     by a rule that converges, and its sum of squares exceeds that of the fit before the
     hold (`free_fit`) by no more than chance allows, a likelihood-ratio test at 5 %
@@ -382,7 +388,7 @@ def _hold_accepted(free_fit, reason, converged, result, out, held, n_obs: int) -
     free fit). Otherwise the held leaves are no undetermined parameters, only ones whose
     error is large where the fit stood (a bent start the fit has left, a saturated
     transform), and holding them would pull the fit away from the data."""
-    if reason is None or not converged or result != optx.RESULTS.successful:
+    if reason is None or kind != "converged" or result != optx.RESULTS.successful:
         return False
     free_cost, free_held = free_fit[7], free_fit[6]
     k = len(held) - len(free_held)
@@ -403,13 +409,13 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         resid, jac, force, overflow = _evaluate(problem, y0, data)
         core = _finish(problem, y0, data, resid, jac, force, overflow,
                        optx.RESULTS.nonlinear_max_steps_reached, jnp.asarray(0))
-        return Solved(core, "max_steps = 0: no step taken", problem)
+        return Solved(core, "max_steps = 0: no step taken", problem, stop="max_steps")
     y, steps, start = y0, 0, problem
     n_obs = int(np.sum(np.asarray(data.weights) > 0))
     d = np.zeros(np.shape(y0))
     step_size = jnp.zeros(())
     history = [(0, np.inf, np.asarray(y0))]  # (steps, cost, y) after each call
-    result, reason, converged, out = optx.RESULTS.successful, None, False, None
+    result, reason, kind, out = optx.RESULTS.successful, None, None, None
     held: list[int] = []
     unheld: list[int] = []
     free_fit = None  # the fit as it stood before its first hold
@@ -423,10 +429,10 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
         cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
         if result != optx.RESULTS.successful or not np.isfinite(cost):
             why = status_name(result) if np.isfinite(cost) else "non-finite cost"
-            reason, y = f"the solver stopped ({why})", out.y
+            reason, kind, y = f"the solver stopped ({why})", "failed", out.y
             break
         # (The start's cost is not evaluated: inf, so the cost rules wait for a reference.)
-        reason, converged = _stop_reason(out, budget, cost, _reference(history, steps), tol)
+        reason, kind = _stop_reason(out, budget, cost, _reference(history, steps), tol)
         y, step_size = out.y, out.step_size
         history.append((steps, cost, np.asarray(y)))
         d = np.maximum(d, _column_norms(out.jac))
@@ -444,36 +450,36 @@ def solve_chunked(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
                 unheld = more
                 break
             if free_fit is None:
-                free_fit = (y, out, result, reason, converged, problem, list(held), cost)
+                free_fit = (y, out, result, reason, kind, problem, list(held), cost)
             # Held at the start; the others go on from here (the cost rules start again)
             # with the trust region where it stood: it was learnt on the other
             # coordinates, which have not moved.
             held += more
             problem = _hold(problem, more)
             history = [(steps, np.inf, np.asarray(y))]
-            reason, converged = None, False
-    if free_fit is not None and not _hold_accepted(free_fit, reason, converged, result, out,
+            reason, kind = None, None
+    if free_fit is not None and not _hold_accepted(free_fit, reason, kind, result, out,
                                                    held, n_obs):
         unheld = held[len(free_fit[6]):]
-        y, out, result, reason, converged, problem, held, _ = free_fit
-    return _solved(start, problem, y0, y, data, out, result, reason, converged, steps,
+        y, out, result, reason, kind, problem, held, _ = free_fit
+    return _solved(start, problem, y0, y, data, out, result, reason, kind, steps,
                    max_steps, held, unheld)
 
 
-def _solved(start, problem, y0, y, data, out, result, reason, converged, steps, max_steps,
+def _solved(start, problem, y0, y, data, out, result, reason, kind, steps, max_steps,
             held, unheld) -> Solved:
     """The `Solved` of `solve_chunked` from its last chunk `out` at `y`."""
     if reason is None:
-        result, reason = (optx.RESULTS.nonlinear_max_steps_reached,
-                          f"max_steps = {max_steps} reached")
-    elif result == optx.RESULTS.successful and not converged:
+        result, reason, kind = (optx.RESULTS.nonlinear_max_steps_reached,
+                                f"max_steps = {max_steps} reached", "max_steps")
+    elif result == optx.RESULTS.successful and kind != "converged":
         result = optx.RESULTS.nonlinear_divergence
     core = _finish(problem, y, data, out.resid, out.jac, out.force, out.overflow, result,
                    jnp.asarray(steps))
     if held:
         core, problem = _with_full_covariance(start, y0, y, held, data, result, steps)
     names = [tuple(problem.layout.names[i] for i in k) for k in (held, unheld)]
-    return Solved(core, reason + _held_words(*names), problem, names[0] + names[1])
+    return Solved(core, reason + _held_words(*names), problem, names[0] + names[1], kind)
 
 
 def solve_chunked_batch(problem: _Problem, y0, data: Dataset, solver, max_steps: int,
@@ -484,7 +490,8 @@ def solve_chunked_batch(problem: _Problem, y0, data: Dataset, solver, max_steps:
     (`_chunk_batch`; a dataset that is done gets a budget of 0), and each dataset follows
     the same scaling, chunk sizes and stopping rules as `solve_chunked` on its own, so it
     stops where `fit` would. Undetermined parameters are not held (the problem is shared).
-    Returns the batched core and why each dataset stopped."""
+    Returns the batched core, why each dataset stopped and its kind of stop (as
+    `Solved.stop`)."""
     tol = Tolerances() if tol is None else tol
     count = jax.tree.leaves(data)[0].shape[0]
     y0 = np.asarray(y0)
@@ -495,7 +502,7 @@ def solve_chunked_batch(problem: _Problem, y0, data: Dataset, solver, max_steps:
     history = [[(0, np.inf, y0)] for _ in range(count)]
     done = np.zeros(count, dtype=bool) if max_steps > 0 else np.ones(count, dtype=bool)
     reasons: list[str | None] = [None] * count
-    converged = [False] * count
+    kinds: list[str | None] = [None] * count
     results = [optx.RESULTS.successful] * count
     last: list[_ChunkOut | None] = [None] * count
     rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
@@ -516,28 +523,29 @@ def solve_chunked_batch(problem: _Problem, y0, data: Dataset, solver, max_steps:
             if out.result != optx.RESULTS.successful or not np.isfinite(cost):
                 why = status_name(out.result) if np.isfinite(cost) else "non-finite cost"
                 reasons[i], ys[i], done[i] = f"the solver stopped ({why})", out.y, True
+                kinds[i] = "failed"
                 continue
-            reasons[i], converged[i] = _stop_reason(
+            reasons[i], kinds[i] = _stop_reason(
                 out, int(budget[i]), cost, _reference(history[i], steps[i]), tol)
             ys[i], step_size[i] = out.y, out.step_size
             history[i].append((steps[i], cost, np.asarray(out.y)))
             d[i] = np.maximum(d[i], _column_norms(out.jac))
             done[i] = reasons[i] is not None or steps[i] >= max_steps
-    return _finish_all(problem, y0, data, ys, steps, last, results, reasons, converged,
+    return _finish_all(problem, y0, data, ys, steps, last, results, reasons, kinds,
                        max_steps)
 
 
-def _finish_all(problem, y0, data, ys, steps, last, results, reasons, converged,
+def _finish_all(problem, y0, data, ys, steps, last, results, reasons, kinds,
                 max_steps):
     """The batched core of `solve_chunked_batch` from each dataset's last chunk."""
     count = len(last)
     cores = []
     for i in range(count):
         if reasons[i] is None:
-            results[i] = optx.RESULTS.nonlinear_max_steps_reached
+            results[i], kinds[i] = optx.RESULTS.nonlinear_max_steps_reached, "max_steps"
             reasons[i] = (f"max_steps = {max_steps} reached" if max_steps > 0 else
                           "max_steps = 0: no step taken")
-        elif results[i] == optx.RESULTS.successful and not converged[i]:
+        elif results[i] == optx.RESULTS.successful and kinds[i] != "converged":
             results[i] = optx.RESULTS.nonlinear_divergence
         if last[i] is None:  # no step taken: evaluated at the start
             data_i = jax.tree.map(lambda a, i=i: a[i], data)
@@ -551,4 +559,4 @@ def _finish_all(problem, y0, data, ys, steps, last, results, reasons, converged,
     y, resid, jac, force, overflow = stacked
     core = _finish_batch(problem, y, data, resid, jac, force, overflow, result,
                          jnp.asarray(steps))
-    return core, [str(r) for r in reasons]
+    return core, [str(r) for r in reasons], [str(k) for k in kinds]

@@ -52,7 +52,7 @@ from ._data import absurd_sample, check_dataset, Dataset, stack
 from ._gc import paused_gc
 from ._per_run import has_per_run, run_model, shifted, with_runs
 from ._problem import _Problem, _problem
-from ._result import _assemble, _warn_overflow, FitResult
+from ._result import _assemble, _warn_overflow, final_stop, FitResult
 from ._solve import (
     _solve,
     _solve_batch,
@@ -76,29 +76,58 @@ def _fit_stacked(problem: _Problem, y0, checked: Sequence[Dataset], data: Datase
     solver = default_solver() if solver is None else solver
     problem = problem.bounded(data)
     undetermined: tuple[str, ...] = ()
+    kind = None
     # (fitting._blas: OpenBLAS's spinning threads; fitting._gc: Python's cyclic collector)
     with single_threaded_blas(), paused_gc():
         if isinstance(solver, optx.AbstractLeastSquaresSolver):
             solved = solve_chunked(problem, y0, data, solver, max_steps,
                                    tol or Tolerances(), progress)
             core, stopped, problem = solved.core, solved.stopped, solved.problem
-            undetermined = solved.undetermined
+            undetermined, kind = solved.undetermined, solved.stop
         else:  # a minimiser: one compiled loop (no Jacobian to scale by)
             core, stopped = _solve(problem, y0, data, solver, max_steps), ""
     stopped = _honest(core, stopped, problem)
+    stop = _stop(core, problem, kind)
     _warn_overflow(core)
     # Sliced and subtracted in NumPy: op by op in JAX, each new length compiles kernels.
     force = np.asarray(core.prediction)
     pred = [force[i, : d.t.shape[0]] for i, d in enumerate(checked)]
     resid = tuple(jnp.asarray(p - np.asarray(d.F)) for p, d in zip(pred, checked))
     pred = tuple(jnp.asarray(p) for p in pred)
-    return (_assemble(problem, core, pred, resid, stopped, undetermined), core.fit_model)
+    return (_assemble(problem, core, pred, resid, stopped, undetermined, stop),
+            core.fit_model)
+
+
+def _failed_checks(r2, at_bound, names) -> tuple[bool, list[str]]:
+    """Whether a fit of R2 `r2` and flags `at_bound` (per leaf of `names`) fails `fit`'s
+    checks (`fitting._solve._finish_impl`: R2 below `MIN_R2`, a parameter pinned at a
+    bound of its transform), and the names of the pinned ones."""
+    bound = [n for n, b in zip(names, np.asarray(at_bound)) if b]
+    return float(r2) < MIN_R2 or bool(bound), bound
+
+
+def _stop(core, problem: _Problem, kind: str | None, i=None) -> str:
+    """The `FitResult.stop` of one fit (dataset `i` of a batched `core`): `kind` as the
+    chunked solve decided it (``None`` for a minimiser's single loop, judged by its result
+    code), with `fit`'s checks (`fitting._result.final_stop`)."""
+    pick = (lambda a: a) if i is None else (lambda a: np.asarray(a)[i])
+    code = jax.tree.map(pick, core.result)
+    failed, _ = _failed_checks(pick(core.r2), pick(core.at_bound), problem.layout.names)
+    if kind is None:  # (a minimiser's loop stuck at its start ends in nonlinear_divergence)
+        if code == optx.RESULTS.nonlinear_max_steps_reached:
+            kind = "max_steps"
+        elif code == optx.RESULTS.nonlinear_divergence and not failed:
+            kind = "stuck"
+        else:
+            kind = "converged" if code in (optx.RESULTS.successful,
+                                           optx.RESULTS.nonlinear_divergence) else "failed"
+    return final_stop(kind, code, failed)
 
 
 def _honest(core, stopped: str, problem: _Problem) -> str:
     """`stopped` with the reason a fit whose stopping rule fired is still not converged
     (`fitting._solve._finish_impl`: R2 below `MIN_R2`, a parameter pinned at a bound)."""
-    bound = [n for n, b in zip(problem.layout.names, np.asarray(core.at_bound)) if b]
+    _, bound = _failed_checks(core.r2, core.at_bound, problem.layout.names)
     why = []
     if float(core.r2) < MIN_R2:
         why.append(f"R2 = {float(core.r2):.3g} < {MIN_R2:g}: the data are not explained")
@@ -362,17 +391,20 @@ def fit_batch(
     rule = (jnp.asarray(tol.decrease, float), jnp.asarray(tol.undetermined, float))
     with single_threaded_blas(), paused_gc():  # (fitting._blas, fitting._gc)
         if isinstance(solver, optx.AbstractLeastSquaresSolver):
-            core = _chunked_on_devices(problem, y0, data, solver, max_steps, tol, vectorize,
-                                       devices)
+            core, kinds = _chunked_on_devices(problem, y0, data, solver, max_steps, tol,
+                                              vectorize, devices)
         elif devices is not None and len(devices) > 1:
             core = _solve_batch_on_devices(problem, y0, data, solver, max_steps,
                                            list(devices), vectorize, *rule)
+            kinds = [None] * count
         else:
             core = _solve_batch(problem, y0, data, solver, max_steps, vectorize, *rule)
+            kinds = [None] * count
     _warn_overflow(core)
     pred = np.asarray(core.prediction)[:, 0, :]  # NumPy: see `_fit_stacked`
+    stop = tuple(_stop(core, problem, kind, i) for i, kind in enumerate(kinds))
     result = _assemble(problem, core, jnp.asarray(pred),
-                       jnp.asarray(pred - np.asarray(stacked.F)))
+                       jnp.asarray(pred - np.asarray(stacked.F)), stop=stop)
     return _batch_as_simulated(result, checked, stacked.F)
 
 
@@ -380,12 +412,17 @@ def _chunked_on_devices(problem: _Problem, y0, data: Dataset, solver, max_steps:
                         tol: Tolerances, vectorize: bool, devices):
     """`solve_chunked_batch` of the B datasets of `data`, split into contiguous shares,
     one per device (`device_shares`), each share placed on its device and solved there in
-    its own thread (the loops between chunks are Python; the devices compute at once)."""
+    its own thread (the loops between chunks are Python; the devices compute at once).
+    Returns the batched core and each dataset's kind of stop (`Solved.stop`)."""
     if devices is None or len(devices) <= 1:
-        return solve_chunked_batch(problem, y0, data, solver, max_steps, tol, vectorize)[0]
+        core, _, kinds = solve_chunked_batch(problem, y0, data, solver, max_steps, tol,
+                                             vectorize)
+        return core, kinds
     parts = [(size, jax.device_put((problem, y0, part), device))
              for size, part, device in device_shares(data, devices)]
     with ThreadPoolExecutor(len(parts)) as pool:
         jobs = [(size, pool.submit(solve_chunked_batch, *placed, solver, max_steps, tol,
                                    vectorize)) for size, placed in parts]
-        return join_shares([(size, job.result()[0]) for size, job in jobs])
+        done = [(size, job.result()) for size, job in jobs]
+        return (join_shares([(size, out[0]) for size, out in done]),
+                [kind for size, out in done for kind in out[2][:size]])

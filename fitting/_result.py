@@ -2,6 +2,7 @@
 the result code), assembled from the arrays of the compiled solve.
 """
 
+import dataclasses
 import warnings
 from typing import Any
 
@@ -26,6 +27,17 @@ _RESULT_NAMES = ("successful", "nonlinear_max_steps_reached", "nonlinear_diverge
 #: Correlation (in magnitude) above which two fitted parameters are reported as weakly
 #: determined (`FitResult.weakly_determined`).
 WEAK_CORRELATION = 0.99
+
+#: The kinds of stop (`FitResult.stop`), decided where the fit stops (`fitting._chunked`,
+#: `fitting._fit` for the checks): ``"converged"`` (a stopping rule fired and the fit
+#: passes `fit`'s checks), ``"kink"`` (the steps gain nothing while the Gauss-Newton model
+#: still predicts more than chance: a kink of the cost; no certificate of a minimum, so
+#: `converged` is False), ``"stuck"`` (no step moves the fit or lowers the cost although
+#: the gradient is not nil), ``"max_steps"`` (cut at the step limit), ``"failed"`` (the
+#: solver failed, or the cost is not finite), ``"checks"`` (a rule fired, converged or at a
+#: kink, but the fit fails `fit`'s checks: R2 below `fitting._solve.MIN_R2`, a parameter
+#: pinned at a bound).
+STOPS = ("converged", "kink", "stuck", "max_steps", "failed", "checks")
 
 
 def status_name(result: optx.RESULTS) -> str | list[str]:
@@ -77,6 +89,7 @@ class FitResult(eqx.Module):
     - `stopped`: why the fit stopped, in words (which stopping rule of
       `fitting._stopping.Tolerances` fired, or the step limit, and why a fit whose rule
       fired is still not converged); empty for `fit_batch`.
+    - `stop`: the kind of stop, one of `STOPS` (a tuple, one per dataset, for `fit_batch`).
     - `undetermined`: names (of `fit_names`) of the parameters the data do not determine
       (standard error above `Tolerances.undetermined` in the solver's coordinates: not
       even a factor e for a positive parameter). `fit` holds them at their start values;
@@ -120,6 +133,7 @@ class FitResult(eqx.Module):
     leaf_names: tuple[str, ...] = eqx.field(static=True, default=())
     stopped: str = eqx.field(static=True, default="")
     undetermined: tuple[str, ...] = eqx.field(static=True, default=())
+    stop: str | tuple[str, ...] = eqx.field(static=True, default="")
 
     @property
     def converged(self) -> Array:
@@ -131,7 +145,10 @@ class FitResult(eqx.Module):
 
     def __getitem__(self, i) -> "FitResult":
         """Dataset `i` of a batched result (from `fit_batch`)."""
-        return jax.tree.map(lambda a: a[i], self)
+        out = jax.tree.map(lambda a: a[i], self)
+        if isinstance(self.stop, tuple):
+            out = dataclasses.replace(out, stop=self.stop[i])
+        return out
 
     def weakly_determined(self, threshold: float | None = None) -> list[tuple[str, str, float]]:
         """``(name, name, correlation)`` of the free fitted parameters (`fit_names`) whose
@@ -190,7 +207,8 @@ def _unknown_errors(names, undetermined, paper_shape: bool) -> set[str]:
 
 
 def _assemble(problem: _Problem, core: _Core, prediction, residuals,
-              stopped: str = "", undetermined: tuple[str, ...] = ()) -> FitResult:
+              stopped: str = "", undetermined: tuple[str, ...] = (),
+              stop: str | tuple[str, ...] = "") -> FitResult:
     """Turn solver arrays into a `FitResult` (works on batched cores too)."""
     layout = problem.layout
     batched = core.y.ndim == 2
@@ -227,7 +245,23 @@ def _assemble(problem: _Problem, core: _Core, prediction, residuals,
         leaf_names=layout.names,
         stopped=stopped,
         undetermined=tuple(undetermined),
+        stop=stop,
     )
+
+
+def final_stop(kind: str, result, checks_failed: bool) -> str:
+    """The `STOPS` kind of a fit whose solve stopped by `kind` (``"converged"``,
+    ``"kink"``, ``"stuck"``, ``"max_steps"`` or ``"failed"``, as the chunked solve decided)
+    and ended with the result code `result` (after `fitting._solve._finish_impl`'s checks):
+    a successful code is converged (a solve cut at its step limit at the optimum, too);
+    a non-finite fit failed; a rule that fired on a fit failing the checks is "checks"."""
+    if bool(np.asarray(result == optx.RESULTS.successful)):
+        return "converged"
+    if bool(np.asarray(result == optx.RESULTS.nonfinite)):
+        return "failed"
+    if kind in ("converged", "kink") and checks_failed:
+        return "checks"
+    return "failed" if kind == "converged" else kind
 
 
 def _warn_overflow(core: _Core) -> None:

@@ -143,19 +143,23 @@ class Option:
 
 
 def _converged(res) -> bool:
-    """Whether a fit ended by a rule of its own, its values final: converged, or stopped
-    where its steps gain (next to) nothing although its linear model predicts more
-    (``stopped`` begins "NOT converged: " in `fitting._chunked`: the steps stalled, or the
-    solver's own step test fired first; a kink of the cost, a local minimum of the cost
-    as it is; what that point predicts held out is for the rule to judge). Not a fit cut
-    at its step limit (it would go on), a failed solve, or one failing `fit`'s own checks
-    (R2, a parameter pinned at a bound: "; NOT converged" further on)."""
+    """Whether a fit ended by a rule of its own, its values final: its stop kind
+    (`FitResult.stop`) is ``"converged"``, or ``"kink"`` with a finite RMSE (its steps gain
+    (next to) nothing although its linear model predicts more: a kink of the cost, a local
+    minimum of the cost as it is; what that point predicts held out is for the rule to
+    judge). Not a fit cut at its step limit (it would go on), a failed solve, a stuck one,
+    or one failing `fit`'s own checks (R2, a parameter pinned at a bound). A result
+    without a stop kind is judged by its words (``stopped`` begins "NOT converged: " at a
+    kink, and has "; NOT converged" further on when the checks failed)."""
     if bool(np.asarray(res.result == optx.RESULTS.successful)):
         return True
-    stopped = str(res.stopped)
-    return (bool(np.asarray(res.result == optx.RESULTS.nonlinear_divergence))
-            and stopped.startswith("NOT converged: ") and "; NOT converged" not in stopped
-            and bool(np.isfinite(np.asarray(res.rmse))))
+    stop = getattr(res, "stop", "")
+    if not stop:
+        stopped = str(res.stopped)
+        kink = (bool(np.asarray(res.result == optx.RESULTS.nonlinear_divergence))
+                and stopped.startswith("NOT converged: ") and "; NOT converged" not in stopped)
+        stop = "kink" if kink else "other"
+    return stop == "kink" and bool(np.isfinite(np.asarray(res.rmse)))
 
 
 class Fitter:

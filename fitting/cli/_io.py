@@ -162,6 +162,7 @@ def result_json(kind: str, res, m) -> dict:
         "converged": bool(res.converged),
         "status": res.status,
         "stopped": getattr(res, "stopped", ""),  # which stopping rule ended the fit, in words
+        "stop": getattr(res, "stop", ""),  # its kind (fitting._result.STOPS)
         # Parameters the data do not determine (held at their start, stderr null) and those
         # pinned at a bound of their transform.
         "undetermined": list(getattr(res, "undetermined", ())),

@@ -44,6 +44,7 @@ def test_batch_with_zero_steps_is_not_success(tustin_data):
     assert list(np.asarray(res.num_steps)) == [0, 0, 0]
     assert res.status == ["nonlinear_max_steps_reached"] * 3
     assert not np.any(np.asarray(res.converged))
+    assert res.stop == ("max_steps",) * 3
 
 
 def test_batch_marks_a_non_finite_cost_per_dataset(tustin_data):
@@ -54,6 +55,7 @@ def test_batch_marks_a_non_finite_cost_per_dataset(tustin_data):
     status = res.status
     assert status[0] == status[2] == "successful", status
     assert status[1] != "successful" and not bool(res.converged[1])
+    assert res.stop == ("converged", "failed", "converged") and res[1].stop == "failed"
     assert not np.isfinite(float(res.rmse[1]))
     assert np.all(np.isfinite(np.asarray(res.rmse)[[0, 2]]))
 
@@ -91,7 +93,8 @@ def test_a_batch_fit_that_never_leaves_its_start_is_not_converged(tustin_data):
     lazy = optx.LevenbergMarquardt(rtol=1e3, atol=1e3)
     off = _batch(tustin_data, clean, solver=lazy)
     assert float(off.params["Fs"][0]) == float(start.stribeck.Fs)  # it did not move
-    assert off.status == ["nonlinear_divergence"] * 2
+    assert off.status == ["nonlinear_divergence"] * 2 and off.stop == ("stuck",) * 2
     at = fitting.fit_batch(paper.tustin(), np.broadcast_to(t, clean.shape),
                            np.broadcast_to(x, clean.shape), clean, solver=lazy)
     assert at.status == ["successful"] * 2 and np.all(np.asarray(at.rmse) < 1e-9)
+    assert at.stop == ("converged",) * 2

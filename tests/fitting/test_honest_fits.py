@@ -25,6 +25,7 @@ def test_a_collapse_is_not_converged():
     assert float(res.r2) < fitting._solve.MIN_R2
     assert not bool(res.converged) and res.status != "successful"
     assert "NOT converged" in res.stopped and "R2" in res.stopped, res.stopped
+    assert res.stop == "checks"
 
 
 def test_a_parameter_pinned_at_a_bound_is_not_converged():
@@ -44,6 +45,7 @@ def test_a_parameter_pinned_at_a_bound_is_not_converged():
     assert flags["Fs"] and not flags["Fc"], (res.stopped, res.params)
     assert not bool(res.converged)
     assert "pinned at a bound of its transform: Fs" in res.stopped, res.stopped
+    assert res.stop == "checks"
 
 
 def test_transform_bounds():

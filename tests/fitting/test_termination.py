@@ -9,6 +9,7 @@ import pytest
 import fitting
 import jaxfric
 from fitting import _chunked
+from fitting._select import _converged
 from jaxfric import paper, trajectories
 
 
@@ -129,6 +130,7 @@ os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
 import equinox as eqx, jax, numpy as np
 import fitting, jaxfric
 from fitting import _chunked
+from fitting._select import _converged
 from jaxfric import paper, trajectories
 t = np.arange(0.0, 10.0, 1e-3)
 x = 1e-3 * (1 - np.cos(2 * np.pi * t / 2.5)) + 20e-6 * np.sin(2 * np.pi * 7 * t)
@@ -183,6 +185,9 @@ def test_the_statistical_rule_stops_a_creeping_fit(problem):
     off = fitting.fit(start, t, x, F, solver=never, max_steps=60,
                       tol=fitting.Tolerances(ftol=0.0, xtol=0.0, gtol=0.0, decrease=0.0))
     assert "max_steps" in off.stopped or "stuck" in off.stopped, off.stopped
+    # (At its step limit within 0.03 standard errors of the optimum it is converged.)
+    assert res.stop == "converged" and off.stop in ("max_steps", "stuck", "converged")
+    assert (off.stop == "converged") == bool(off.converged), off.stop
 
 
 def test_cli_zero_steps_is_reported_as_not_converged(tmp_path):
@@ -211,7 +216,7 @@ def test_cli_zero_steps_is_reported_as_not_converged(tmp_path):
     assert len(warning) == 1 and "did not converge (nonlinear_max_steps_reached)" in warning[0]
     saved = json.loads(out.read_text())
     assert saved["converged"] is False and saved["iterations"] == 0
-    assert saved["status"] == "nonlinear_max_steps_reached"
+    assert saved["status"] == "nonlinear_max_steps_reached" and saved["stop"] == "max_steps"
 
 
 def test_a_step_test_before_the_fit_settles_is_not_converged(problem):
@@ -224,6 +229,7 @@ def test_a_step_test_before_the_fit_settles_is_not_converged(problem):
     res = fitting.fit(start, t, x, F, solver=solver, max_steps=256)
     assert not bool(res.converged), res.stopped
     assert "before the fit settled" in res.stopped, res.stopped
+    assert res.stop == "kink"
     done = fitting.fit(start, t, x, F, max_steps=256)
     assert bool(done.converged), done.stopped
     # The sums of squares, in noise variances of the finished fit.
@@ -260,6 +266,7 @@ def test_a_fit_stuck_at_a_kink_is_not_converged():
     assert float(res.rmse) > 1.05 * floor  # (stuck: the test is about saying so)
     assert not bool(res.converged), res.stopped
     assert "more than chance allows" in res.stopped, res.stopped
+    assert res.stop == "kink" and _converged(res)  # final for the diagnosis's rule
 
 
 def test_a_fit_at_a_kink_near_the_optimum_is_converged():
