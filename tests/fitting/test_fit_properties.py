@@ -16,7 +16,7 @@ import pytest
 
 import fitting
 import jaxfric
-from jaxfric import paper, trajectories
+from jaxfric import NormalizedPaperShape, paper, trajectories
 
 
 N = 4000  # samples at 1 kHz
@@ -51,10 +51,16 @@ def _truth(kind: str, rng):
     if kind == "two-state":
         m = _stribeck(rng, paper.two_state())
         # Presliding: the range l1 (m/N) and the friction lag C drawn; the shape's form is
-        # the paper's (scaled with Fs*l1 through the normalised shape).
-        return eqx.tree_at(lambda m: (m.shape.l1, m.C), m,
-                           (jnp.asarray(_factor(rng, 2e-6, 8e-6)),
-                            jnp.asarray(_factor(rng, 3.0, 30.0))))
+        # the paper's, scaled with Fs*l1 through the normalised shape. (The paper's a, b, c
+        # with another l1 would evaluate its saw-tooth polynomial, fitted on 0.22 mm, out
+        # to 2*Fs*l1: beyond 0.5 mm the virgin curve turns negative, the force growing
+        # against the new motion for 0.2 mm before it jumps; at 0.35 mm it saturates
+        # within a fifth of its range.)
+        base = NormalizedPaperShape.from_paper(paper.shape(), paper.stribeck().Fs)
+        l1 = _factor(rng, 2e-6, 8e-6)
+        shape = eqx.tree_at(lambda s: s.l1, base, jnp.asarray(l1)).to_paper(m.stribeck.Fs)
+        return eqx.tree_at(lambda m: (m.shape, m.C), m,
+                           (shape, jnp.asarray(_factor(rng, 3.0, 30.0))))
     if kind == "lugre":
         m = _stribeck(rng, paper.lugre())
         s0 = _factor(rng, 1e6, 1e7)
