@@ -12,8 +12,13 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   per speed bin (`fitting._steady`); with fewer
   than 3 speed bins, from force levels (``Fc`` the median of ``|F|`` while moving,
   ``Fs = 1.2*Fc``, ``Vs`` a fifth of the 90th percentile of ``|v|``, a small ``sigma2``)
-  or the steady constant-velocity segments (`initial_stribeck`), whichever static curve
-  fits the sliding force better.
+  or the steady constant-velocity segments (`initial_stribeck`): for Tustin whichever
+  static curve fits the moving samples better; for the hysteretic starts both, settled
+  with the uncertain values below. (Where the presliding range is most of a stroke, few
+  or no samples slide steadily, and a static curve judged on moving samples that are
+  mostly presliding can be far off: a segment line with ``Fc`` 5 % of ``Fs`` and a huge
+  ``sigma2``, from which the two-state start was 15 N RMS off the data where a start
+  with the level curve is 2 N off: tests/fitting/test_start.py.)
 - **Presliding extent and stiffness**: two-state ``l1`` from the swing travel scaled by the
   paper shape's own ``Pi^-1(0.9)`` (`fitting._staged._estimate_l1`), the shape the paper's
   rescaled to it; GMS the elements of that shape (`jaxfric.GMS.from_shape`); LuGre
@@ -25,9 +30,10 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   before the presliding and the curve are known, so it is one of the uncertain values below.
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
   estimate), the lag time constant (`LAG_TIMES`) and, for the two-state and GMS starts,
-  the curve's exponent (`LAG_DELTAS`) are tried together: every candidate is
-  simulated on the measurement (one compiled `jaxfric.simulate` for all) and the one with
-  the smallest sum of squared errors is the start. (LuGre: ``sigma0`` x0.5, x1, x2.)
+  the curve's exponent (`LAG_DELTAS`; without speed bins, the static curves) are tried
+  together: every candidate is simulated on the measurement (one compiled
+  `jaxfric.simulate` for all) and the one with the smallest sum of squared errors is the
+  start. (LuGre: ``sigma0`` x0.5, x1, x2 with each curve.)
   Then, for every hysteretic start, larger viscous terms (`VISCOUS_SHARES`), the same way
   (`_viscous`).
 """
@@ -131,9 +137,11 @@ def swing_travel(x, F, level: float = 0.9) -> float | None:
     return float(np.median(travels)) if travels else None
 
 
-def _static_curve(t, x, F, v, vel, presliding, deltas=(START_DELTA,)):
+def _static_curve(t, x, F, v, vel, presliding, deltas=(START_DELTA,), every=False):
     """``[(stribeck, sigma2), ...]``: the steady-state curve read off the data (module
-    docstring), one per exponent of `deltas` when the bins are fitted, else one."""
+    docstring), one per exponent of `deltas` when the bins are fitted; else the static
+    curve that fits the moving samples best, or with `every` each reading, that one
+    first (for a hysteretic start, whose simulation settles the choice: `_best`)."""
     curve = steady_curve(t, x, F, vel, presliding)
     if len(curve) >= 3:
         return [fit_steady_curve(curve, deltas=(d,))[:2] for d in deltas]
@@ -151,7 +159,8 @@ def _static_curve(t, x, F, v, vel, presliding, deltas=(START_DELTA,)):
         static = np.asarray(jaxfric.simulate(tustin, t, x, v))
         return float(np.sum(((static - F)[sliding]) ** 2))
 
-    return [min(candidates, key=static_rss)]
+    ranked = sorted(candidates, key=static_rss)
+    return ranked if every else ranked[:1]
 
 
 def _best(models, t, x, F, v):
@@ -182,7 +191,8 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
         stribeck, sigma2 = _static_curve(t, x, F, v, vel, presliding)[0]
         return jaxfric.Tustin(stribeck=stribeck, sigma2=sigma2)
     curves = _static_curve(t, x, F, v, vel, presliding,
-                           LAG_DELTAS if kind in ("two-state", "gms") else (START_DELTA,))
+                           LAG_DELTAS if kind in ("two-state", "gms") else (START_DELTA,),
+                           every=True)
     if steady_sliding(t, x, vel, presliding).sum() < MIN_SLIDING:
         # Never sliding: no velocity weakening in the data, so none in the start, and a
         # viscous term as small as the steady curve's floor (`fitting._steady`).
@@ -193,10 +203,12 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
     fs = float(stribeck.Fs)
     if kind == "lugre":
         travel = x90 if x90 is not None else 0.05 * _strokes(x)
-        sigma0 = np.log(10.0) * fs / travel
-        best = _best([jaxfric.LuGre(stribeck=stribeck, sigma0=f * sigma0,
-                                    sigma1=2.0 * (f * sigma0) ** 0.5, sigma2=sigma2)
-                      for f in SPREAD], t, x, F, v)
+        lugres = []
+        for f, (stribeck, sigma2) in itertools.product(SPREAD, curves):
+            sigma0 = f * np.log(10.0) * float(stribeck.Fs) / travel
+            lugres.append(jaxfric.LuGre(stribeck=stribeck, sigma0=sigma0,
+                                        sigma1=2.0 * sigma0**0.5, sigma2=sigma2))
+        best = _best(lugres, t, x, F, v)
         return _viscous(best, t, x, F, v, vel)
     base = NormalizedPaperShape.from_paper(paper.shape(), paper.stribeck().Fs)
     probe = jaxfric.TwoState(stribeck=stribeck, shape=base.to_paper(fs), sigma2=sigma2,

@@ -104,10 +104,10 @@ def _within_steps(kind: str, fits) -> None:
 
 
 # Seeds 3-22 (``-m slow``), measured on the loaded 2-core machine: every two-state truth
-# converges to the noise in 10-29 steps from its start (0.1-1.7 N RMS off the data),
+# converges to the noise in 10-28 steps from its start (0.1-1.7 N RMS off the data),
 # including the longest presliding ranges, ``l1*Fs`` 0.27-0.32 mm on strokes of +-1 mm,
-# whose ``l1`` the start reads within 10 %. LuGre (at most 24) and Tustin (at most 26)
-# are within 40.
+# which the start reads within 25 %. LuGre (at most 24) and Tustin (at most 26) are
+# within 40.
 KINDS = ["two-state", "lugre", "tustin"]
 FEW, MANY = tuple(range(3)), tuple(range(3, 23))
 
