@@ -238,9 +238,9 @@ def _viscous(model, t, x, F, v, vel):
     lag has not settled in them (it bends the curve like a Stribeck drop) or where they
     span a narrow range of speeds; a fit then finds ``sigma2 = 0``, whose floor (0.1 % of
     the largest force at the largest speed) is decades below a viscous term of a few
-    percent, and climbing those decades on the log scale took the two-state fits of
-    tests/fitting/test_fit_properties.py 36-77 steps where the true ``sigma2`` takes
-    25-32. Only larger values are tried: a smaller ``sigma2`` than the bins' is no better
+    percent, and climbing those decades on the log scale took two of the two-state fits
+    of tests/fitting/test_fit_properties.py (seeds 12 and 20) 36 and 34 steps instead of
+    21 and 19. Only larger values are tried: a smaller ``sigma2`` than the bins' is no better
     supported."""
     v90 = float(np.quantile(np.abs(vel[vel != 0]), 0.9))
     fc = float(model.stribeck.Fc)
