@@ -45,11 +45,15 @@ def test_converged_and_max_steps_for_fit_and_fit_datasets(strokes):
 
 
 def test_a_minimiser_fit_has_a_stop_kind(strokes):
-    """`fit` with an optimistix minimiser (one compiled loop, no chunks): the kind comes
-    from its result code."""
+    """`fit` and `fit_batch` with an optimistix minimiser (one compiled loop, no chunks):
+    the kind comes from its result code."""
     t, x, F, start = strokes
-    cut = fitting.fit(start, t, x, F, solver=optx.BFGS(rtol=1e-8, atol=1e-8), max_steps=3)
+    bfgs = optx.BFGS(rtol=1e-8, atol=1e-8)
+    cut = fitting.fit(start, t, x, F, solver=bfgs, max_steps=3)
     assert cut.stop == "max_steps", (cut.status, cut.stop)
+    both = fitting.fit_batch(start, np.stack([t, t]), np.stack([x, x]), np.stack([F, F]),
+                             solver=bfgs, max_steps=3)
+    assert both.stop == ("max_steps", "max_steps"), (both.status, both.stop)
 
 
 def test_batch_kinds_per_dataset_and_in_the_json(strokes):
