@@ -57,9 +57,15 @@ class Data:
 
     def every(self, k: int) -> tuple["Data", np.ndarray]:
         """One sample in `k` of each run, and their indices into this record's samples."""
-        idx = np.concatenate([np.arange(sl.start, sl.stop, k) for sl in self.slices()])
+        return self.take(np.concatenate([np.arange(sl.start, sl.stop, k)
+                                         for sl in self.slices()]))
+
+    def take(self, idx) -> tuple["Data", np.ndarray]:
+        """The samples `idx` (indices into this record, sorted and made unique; each run
+        keeps its own), and those indices."""
+        idx = np.unique(np.asarray(idx, int))
         lengths = None if self.lengths is None else tuple(
-            len(range(sl.start, sl.stop, k)) for sl in self.slices())
+            int(np.count_nonzero((idx >= sl.start) & (idx < sl.stop))) for sl in self.slices())
         return Data(*(None if arr is None else arr[idx] for arr in
                       (self.t, self.x, self.v, self.F, self.a, self.load)), lengths), idx
 

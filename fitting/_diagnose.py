@@ -11,15 +11,20 @@ parameter not already in the model (those of an angle only on rotary data, those
 only with a load signal), and a richer base model (`_richer`: a GMS with 20 elements
 started at the fitted two-state model's presliding curve).
 
-A long record (at least twice `search_samples` samples) is searched on one sample in
-``k = n // search_samples``, halved until that copy is faithful (`_faithful_step`: the
-base model, fitted on every sample first, simulated on the copy is within the force's
-noise of its full-rate simulation; that fit is the baseline reported). The
-copy keeps the full-rate velocity and acceleration estimates at its samples, so an
-effect's relation to them is kept; the force is not averaged, which would smear short
-accelerations. The final model is then refitted on every sample from where the search
-left it, and the errors of the fits on every sample are reported (the held-out errors are
-the search's cross-validation).
+A long record (at least twice `search_samples` samples) is searched on a copy of about
+`search_samples` samples (`_search_copy`), half evenly in time and half evenly in the
+base model's force change, plus every reversal with the sample before it: the base model,
+fitted on every sample first (that fit is the baseline reported), is simulated on every
+sample, and the copy keeps what its states need: the exact reversal points, and dense
+samples where its presliding and lag change fast (after reversals and starts), which a
+copy of one sample in k smears over its long steps. The copy is faithful when the base
+model simulated on it is within the force's noise of its full-rate simulation; its size
+is doubled until it is. It keeps the full-rate velocity and acceleration estimates at its
+samples, so an effect's relation to them is kept; the force is not averaged, which would
+smear short accelerations. Its time column is uneven: the held-out blocks are of equal
+duration (`fitting._select.time_block_folds`). The final model is then refitted on every
+sample from where the search left it, and the errors of the fits on every sample are
+reported (the held-out errors are the search's cross-validation).
 """
 
 from collections.abc import Callable, Sequence
@@ -132,32 +137,75 @@ def noise_level(F) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
 
 
-def _faithful_step(full: Data, model, k: int, log) -> tuple[int, str]:
-    """The largest of ``k, k // 2, ..., 1`` whose search copy (one sample in k) is
-    faithful: `model` (the base model fitted on every sample: the model the search starts
-    from and compares against) simulated on the copy differs from it simulated on every
-    sample (at the copy's samples) by at most the force's noise (`noise_level`), RMS. A
-    state model integrates its presliding and lag over each sampling step, so a coarser
-    copy is another discretisation: where moves start and stop within a few samples, its
-    error can exceed every effect sought, and would be judged as the base model's
-    mismatch. Returns k and what was measured, in words."""
-    if k <= 1:
-        return 1, ""
+def _reversals(d: Data) -> np.ndarray:
+    """The samples (indices into `d`) at which a memory model's direction of motion
+    changes, each with the sample before it (its reversal point, ``x_prev``); the first
+    motion too. The direction is `jaxfric.motion.Motion`'s: the sign of the velocity made
+    consistent with the position step (`jaxfric.motion.consistent_velocity`)."""
+    out = []
+    for sl, r in zip(d.slices(), d.runs()):
+        dt = np.diff(r.t, prepend=r.t[:1])
+        dx = np.diff(r.x, prepend=r.x[:1])
+        ok = dt > 0
+        v = np.where(r.v * dx < 0, np.where(ok, dx / np.where(ok, dt, 1.0), 0.0), r.v)
+        i = np.arange(r.t.size)
+        last = np.sign(v)[np.maximum.accumulate(np.where(v != 0, i, 0))]
+        turn = np.flatnonzero(last[1:] != last[:-1]) + 1
+        out.append(sl.start + np.concatenate([turn - 1, turn]))
+    return np.concatenate(out)
+
+
+def _spread(d: Data, ref: np.ndarray, m: int) -> np.ndarray:
+    """About `m` samples of each run in proportion to its length (indices into `d`),
+    evenly spaced in ``u = (t - t_0) / T + W / W_total``: time, and the total variation
+    W of the base model's force `ref` simulated on every sample. Half of them lie evenly
+    in time, half where the model's force, and so its state, changes; the first and last
+    sample of each run are kept."""
+    out = []
+    for sl in d.slices():
+        t, f = d.t[sl], ref[sl]
+        w = np.r_[0.0, np.cumsum(np.abs(np.diff(f)))]
+        u = (t - t[0]) / max(t[-1] - t[0], 1e-300) + (w / w[-1] if w[-1] > 0 else 0.0)
+        mi = max(2, round(m * t.size / d.t.size))
+        pick = np.searchsorted(u, np.linspace(0.0, u[-1], mi))
+        out.append(sl.start + np.r_[np.minimum(pick, t.size - 1), t.size - 1])
+    return np.concatenate(out)
+
+
+def _search_copy(full: Data, model, m: int, log) -> tuple[Data, np.ndarray, str]:
+    """The samples a diagnosis searches on, their indices into `full`, and what was
+    measured, in words: about `m` (`_spread`) and every reversal with the sample before it
+    (`_reversals`), `m` doubled until the copy is faithful: `model` (the base model fitted
+    on every sample: the model the search starts from and compares against) simulated on
+    the copy is within the force's noise (`noise_level`), RMS, of its simulation on every
+    sample. A state model integrates its presliding and lag over each step of its time
+    column (`t` may be uneven), so a copy is another discretisation. A copy one sample in
+    k misses the reversal points (the memory's branch starts) and charges the lag's
+    forcing over a long step after each reversal and start at the end of the step, where
+    the presliding factor of that forcing has grown: an error that outlasts the step by
+    the lag's time constant. Both are kept here. Every sample when no copy of at most half
+    of them is faithful."""
     sigma = noise_level(full.F)
     ref = full.simulate(model)
+    turns = _reversals(full)
     words = ""
-    while k > 1:
-        copy, idx = full.every(k)
+    while 2 * m <= full.t.size:
+        copy, idx = full.take(np.r_[_spread(full, ref, m), turns])
+        if 2 * idx.size > full.t.size:
+            break
         err = float(np.sqrt(np.mean((copy.simulate(model) - ref[idx]) ** 2)))
         if err <= sigma:
-            return k, (f"{words}its simulation differs from the full-rate one by {err:.2g} N "
-                       f"RMS, within the force's noise, {sigma:.2g} N")
-        words += f"one sample in {k} would change the simulation by {err:.2g} N RMS; "
-        log(f"one sample in {k} would change the base model's simulation by {err:.2g} N "
+            return copy, idx, (f"{words}its simulation differs from the full-rate one by "
+                               f"{err:.2g} N RMS, within the force's noise, {sigma:.2g} N")
+        words += f"{idx.size} samples would change the simulation by {err:.2g} N RMS; "
+        log(f"{idx.size} samples would change the base model's simulation by {err:.2g} N "
             f"RMS, more than the force's noise ({sigma:.2g} N): a denser copy")
-        k //= 2
-    return 1, (f"not subsampled: {words.rstrip('; ')}, more than the force's noise "
-               f"({sigma:.2g} N)")
+        m *= 2
+    copy, idx = full.take(np.arange(full.t.size))
+    return copy, idx, (f"not subsampled: {words.rstrip('; ')}, more than the force's "
+                       f"noise ({sigma:.2g} N)" if words else
+                       "not subsampled: its reversals are more than half of its samples")
+
 
 def _records(runs: Sequence[Dataset], derivatives, velocity_window) -> tuple[Data, str]:
     """Several runs (`Dataset`s; a known force subtracted from `F`) as one `Data`, runs
@@ -341,8 +389,9 @@ def diagnose(
       `fitting._derivatives`), and the acceleration `jaxfric.effects.Inertia` reads by the
       same method, unless `a` (m/s^2) is given.
     - `search_samples`: a record of at least twice as many samples (all runs together) is
-      searched on about this many (one sample in k of each run, where faithful) and the
-      final model refitted on all; None or 0 searches on every sample.
+      searched on about this many (`_search_copy`: where faithful; each run in proportion
+      to its length) and the final model refitted on all; None or 0 searches on every
+      sample.
     - `log`: called with a line of progress for every fit.
 
     Returns a `Diagnosis`; its models are in the fit representation
@@ -363,18 +412,18 @@ def diagnose(
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {leaf_names(model)}")
     n = full.t.size
-    k = n // search_samples if search_samples and n >= 2 * search_samples else 1
-    base_full = None
-    if k > 1:  # the baseline on every sample, and the model the copy is judged with
+    base_full, search = None, ""
+    copy, pick = full, np.arange(n)
+    if search_samples and n >= 2 * search_samples:
+        # the baseline on every sample, and the model the copy is judged with
         log(f"fitting the base model on all {n} samples ...")
         base_full = _final_fit(Fitter(full, fixed, max_steps), model,
                                range(len(getattr(model, "effects", ()))), full, full, log, "")
-        k, faithful = _faithful_step(full, base_full.fit_model, k, log)
-    else:
-        faithful = ""
-    copy, pick = full.every(k)
-    search = (f"effects searched on one sample in {k} ({copy.t.size} samples; {faithful}); "
-              f"the baseline and final model refitted on all {n}") if k > 1 else faithful
+        copy, pick, faithful = _search_copy(full, base_full.fit_model, search_samples, log)
+        search = (f"effects searched on {copy.t.size} of the {n} samples (evenly in time "
+                  f"and in the base model's force change, every reversal kept; {faithful}); "
+                  f"the baseline and final model refitted on all {n}"
+                  if copy.t.size < n else faithful)
     if search:
         log(search)
     folds, by = _folds(folds, pick, copy, rules, log)
@@ -394,7 +443,7 @@ def diagnose(
             else float("nan")
 
     first = rounds[0].current
-    base_res = (base_full if base_full is not None and k > 1 else
+    base_res = (base_full if base_full is not None else
                 _final_fit(fitter, first.fitted, first.on, copy, full, log, "the baseline"))
     baseline = _step(base_res, [], full, cv_rmse(first), masks)
     steps, added, finding = [], [], ""
