@@ -148,9 +148,8 @@ def _reversals(d: Data) -> np.ndarray:
         dx = np.diff(r.x, prepend=r.x[:1])
         ok = dt > 0
         v = np.where(r.v * dx < 0, np.where(ok, dx / np.where(ok, dt, 1.0), 0.0), r.v)
-        i = np.arange(r.t.size)
-        last = np.sign(v)[np.maximum.accumulate(np.where(v != 0, i, 0))]
-        turn = np.flatnonzero(last[1:] != last[:-1]) + 1
+        d = np.sign(v)
+        turn = np.flatnonzero(d[1:] != d[:-1]) + 1
         out.append(sl.start + np.concatenate([turn - 1, turn]))
     return np.concatenate(out)
 
