@@ -1,16 +1,24 @@
-"""The diagnosis's search copy (`fitting._diagnose._faithful_step`): one sample in k only
-where the start model simulated on the copy stays within the force's noise of its
-full-rate simulation. On point-to-point moves at 2 ms (moves that start and stop within a
-few samples) one sample in 3 changes a GMS start model's simulation by about 1.7 N RMS
-against 0.1 N of noise, so the record is searched on every sample; on slow motions the
-copy stays."""
+"""The diagnosis's search copy (`fitting._diagnose._search_copy`): about `search_samples`
+samples spread evenly in time and in the base model's force change, plus every change of
+the direction of motion with the sample before it, doubled until the base model simulated
+on the copy is within the force's noise of its full-rate simulation. A copy of one sample
+in k of the same size is not: it misses the reversal points and charges the lag's
+forcing after each reversal and start over a long step (measured here: 0.4 N against
+0.1 N of noise on point-to-point moves at 2 ms, 0.1 N on the 1 ms diagnosis motion)."""
 
 import numpy as np
 import pytest
 
 import fitting
 from fitting import _diagnose
+from fitting._candidates import Data
+from fitting._select import _blocks, time_block_folds
 from jaxfric import synthetic
+from jaxfric.motion import make_motion
+
+
+def _quiet(*_):
+    return None
 
 
 def test_noise_level_is_the_white_noise_of_a_smooth_force_with_steps():
@@ -21,19 +29,88 @@ def test_noise_level_is_the_white_noise_of_a_smooth_force_with_steps():
         0.1, rel=0.05)
 
 
-def _record(truth, dt, **kw):
+def _record(truth, family, dt, **kw):
     t, x, F = synthetic.measurement(truth, (), dt=dt, noise=0.1, **kw)
     full, _ = _diagnose._record(t, x, F, None, None, None, "central", None)
-    return full, fitting.initial_model("gms", t, x, F, full.v, n_elements=20)
+    extra = {"n_elements": 20} if family == "gms" else {}
+    return full, fitting.initial_model(family, t, x, F, full.v, **extra)
 
 
-def test_point_to_point_moves_at_2_ms_are_searched_on_every_sample():
-    full, start = _record("gms_power", 2e-3, motion="point_to_point", duration=30.0)
-    k, words = _diagnose._faithful_step(full, start, 3, lambda *_: None)
-    assert k == 1 and "not subsampled" in words
+def _uniform_error(full: Data, model, size: int) -> float:
+    """The RMS change of `model`'s simulation on one sample in k, a copy of about `size`."""
+    copy, idx = full.every(max(2, full.t.size // size))
+    return float(np.sqrt(np.mean((copy.simulate(model) - full.simulate(model)[idx]) ** 2)))
 
 
-def test_a_slow_motion_keeps_its_copy():
-    full, start = _record("gms_power", 1e-3)  # the diagnosis motion, 1 ms sampling
-    k, words = _diagnose._faithful_step(full, start, 4, lambda *_: None)
-    assert k > 1 and "within the force's noise" in words
+@pytest.mark.parametrize(("truth", "family", "dt", "kw"), [
+    ("two_state_power", "two-state", 2e-3, {"motion": "point_to_point", "duration": 30.0}),
+    ("gms_power", "gms", 1e-3, {}),
+])
+def test_the_copy_is_faithful_where_one_sample_in_k_of_its_size_is_not(truth, family, dt, kw):
+    full, start = _record(truth, family, dt, **kw)
+    copy, idx, words = _diagnose._search_copy(full, start, 5000, _quiet)
+    assert 2 * copy.t.size <= full.t.size and "within the force's noise" in words
+    sigma = _diagnose.noise_level(full.F)
+    err = np.sqrt(np.mean((copy.simulate(start) - full.simulate(start)[idx]) ** 2))
+    assert err <= sigma
+    assert _uniform_error(full, start, copy.t.size) > sigma  # the copy the diagnosis had
+    assert np.array_equal(copy.t, full.t[idx]) and np.array_equal(copy.v, full.v[idx])
+    assert np.array_equal(copy.a, full.a[idx])  # the full-rate estimates, not the copy's
+
+
+def test_the_copy_keeps_every_reversal_and_its_reversal_point():
+    """Each sample where the model's direction changes (`Motion.reversal`), and the one
+    before it (the reversal point, ``x_prev``), so the memory's branches start where they
+    start on every sample."""
+    full, start = _record("two_state_power", "two-state", 2e-3, motion="point_to_point",
+                          duration=30.0)
+    _, idx, _ = _diagnose._search_copy(full, start, 2000, _quiet)
+    motion = make_motion(full.t, full.x, full.v).consistent()
+    turns = np.flatnonzero(np.asarray(motion.reversal))
+    assert turns.size > 10
+    assert np.isin(turns, idx).all() and np.isin(turns - 1, idx).all()
+    starts = np.flatnonzero(np.asarray(motion.moving)[1:] & ~np.asarray(motion.moving)[:-1])
+    assert starts.size > 10 and np.isin(starts + 1, idx).all()
+
+
+def test_point_to_point_moves_with_a_gms_are_searched_on_every_sample():
+    """A 20-element GMS start model on point-to-point moves at 2 ms: no copy of at most
+    half the samples is faithful (its elements slip in and out within a step)."""
+    full, start = _record("gms_power", "gms", 2e-3, motion="point_to_point", duration=30.0)
+    copy, _, words = _diagnose._search_copy(full, start, 5000, _quiet)
+    assert copy.t.size == full.t.size and "not subsampled" in words
+
+
+def test_the_copy_spreads_its_samples_in_time_and_where_the_force_changes():
+    t = np.linspace(0.0, 10.0, 10_001)
+    ref = np.where(t < 1.0, 100.0 * t, 100.0)  # the force changes only in the first second
+    d = Data(t, np.zeros_like(t), np.zeros_like(t), ref)
+    idx = np.unique(_diagnose._spread(d, ref, 200))
+    early = np.count_nonzero(t[idx] < 1.0)
+    assert 100 <= early <= 115  # half the samples where the force changes, plus time's
+    assert np.max(np.diff(t[idx])) <= 2 * 10.0 / 199 + 1e-3  # half evenly in time
+    assert idx[0] == 0 and idx[-1] == t.size - 1
+
+
+def test_the_copy_of_several_runs_keeps_each_run_and_its_first_sample():
+    t = np.linspace(0.0, 1.0, 1000)
+    runs = [np.sin(2 * np.pi * (i + 1) * t) for i in range(3)]
+    d = Data(np.concatenate([t, t, t]), np.concatenate(runs), np.concatenate(runs),
+             np.concatenate(runs), lengths=(1000, 1000, 1000))
+    copy, _ = d.take(_diagnose._spread(d, d.F, 300))
+    assert sum(copy.lengths) == copy.t.size and all(90 <= n <= 110 for n in copy.lengths)
+    assert [r.t[0] for r in copy.runs()] == [0.0, 0.0, 0.0]
+
+
+def test_held_out_blocks_on_an_uneven_copy_are_contiguous_and_of_equal_duration():
+    full, start = _record("two_state_power", "two-state", 2e-3, motion="point_to_point",
+                          duration=30.0)
+    copy, _, _ = _diagnose._search_copy(full, start, 2000, _quiet)
+    assert np.ptp(np.diff(copy.t)) > 10 * np.median(np.diff(full.t))  # uneven
+    folds = time_block_folds(copy.t, 20, 4)
+    blocks = [idx for _, idx in _blocks(folds)]
+    assert len(blocks) == 20 and all(np.all(np.diff(b) == 1) for b in blocks)
+    starts = sorted(copy.t[b[0]] for b in blocks)
+    width = (copy.t[-1] - copy.t[0]) / 20
+    step = np.max(np.diff(copy.t))
+    assert np.allclose(np.diff(starts), width, atol=step)  # equal duration, not count
