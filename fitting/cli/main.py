@@ -268,7 +268,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=int, default=300, help="solver iterations per fit")
     p.add_argument("--search-samples", type=int, default=SEARCH_SAMPLES, metavar="N",
                    help="a record of 2N samples or more: search the effects on about N "
-                        "(one sample in k), refit on all (default: %(default)s; "
+                        "(where the base model needs them), refit on all (default: %(default)s; "
                         "0: every sample throughout)")
     p.add_argument("--report", metavar="DIR", help="write figures and diagnosis.json here")
     _add_deadband_option(p, "auto; the value used is saved in --json")
