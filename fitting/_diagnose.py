@@ -22,9 +22,11 @@ model simulated on it is within the force's noise of its full-rate simulation; i
 is doubled until it is. It keeps the full-rate velocity and acceleration estimates at its
 samples, so an effect's relation to them is kept; the force is not averaged, which would
 smear short accelerations. Its time column is uneven: the held-out blocks are of equal
-duration (`fitting._select.time_block_folds`). The final model is then refitted on every
-sample from where the search left it, and the errors of the fits on every sample are
-reported (the held-out errors are the search's cross-validation).
+duration (`fitting._select.time_block_folds`), and the search's errors (training and held
+out) weigh the stretches where the force changes fast more than the record does. The
+final model is then refitted on every sample from where the search left it, and the
+errors of the fits on every sample are reported (the held-out errors are the search's
+cross-validation).
 """
 
 from collections.abc import Callable, Sequence
