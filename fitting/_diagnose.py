@@ -13,26 +13,28 @@ started at the fitted two-state model's presliding curve).
 
 A long record (at least twice `search_samples` samples) is searched on a copy of about
 `search_samples` samples (`_search_copy`), half evenly in time and half evenly in the
-base model's force change, plus every reversal with the sample before it: the base model,
-fitted on every sample first (that fit is the baseline reported), is simulated on every
-sample, and the copy keeps what its states need: the exact reversal points, and dense
-samples where its presliding and lag change fast (after reversals and starts), which a
-copy of one sample in k smears over its long steps. The copy is faithful when the base
-model simulated on it is within the force's noise of its full-rate simulation; its size
-is doubled until it is. It keeps the full-rate velocity and acceleration estimates at its
-samples, so an effect's relation to them is kept; the force is not averaged, which would
-smear short accelerations. Its time column is uneven: the held-out blocks are of equal
-duration (`fitting._select.time_block_folds`), and the search's errors (training and held
-out) weigh the stretches where the force changes fast more than the record does. The
-final model is then refitted on every sample from where the search left it, and the
-errors of the fits on every sample are reported (the held-out errors are the search's
-cross-validation).
+change of the base model's states (its parts: hysteresis, lag, elements), plus every
+start, stop and reversal with the sample before it: the base model, fitted on every
+sample first (that fit is the baseline reported), is simulated on every sample, and the
+copy keeps what its states need: the exact reversal points, and dense samples where its
+presliding and lag change fast (after reversals and starts, through a steep Stribeck
+curve), which a copy of one sample in k smears over its long steps. The copy is faithful
+when the base model simulated on it is within the force's noise of its full-rate
+simulation; its size is doubled until it is. It keeps the full-rate velocity and
+acceleration estimates at its samples, so an effect's relation to them is kept; the force
+is not averaged, which would smear short accelerations. Its time column is uneven: the
+held-out blocks are of equal duration (`fitting._select.time_block_folds`), and the
+search's errors (training and held out) weigh the stretches where the states change fast
+more than the record does. The final model is then refitted on every sample from where
+the search left it, and the errors of the fits on every sample are reported (the held-out
+errors are the search's cross-validation).
 """
 
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
+import jaxfric
 from jaxfric import effects as fx
 
 from ._candidates import _code, Candidate
@@ -156,16 +158,34 @@ def _reversals(d: Data) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _spread(d: Data, ref: np.ndarray, m: int) -> np.ndarray:
+def _full_rate(full: Data, model) -> tuple[np.ndarray, np.ndarray]:
+    """`model`'s force on every sample of `full` (N, runs concatenated) and how fast its
+    states change: per sample, the sum over its parts (`jaxfric.SimResult.parts`: the
+    hysteresis, the lag, each element, ...; not the stack depth) of their change from the
+    sample before (N; 0 at each run's first sample). The parts, not their sum: a fast lag
+    cancels most of a steep change of the Stribeck curve in the force, not in the states
+    a long step integrates."""
+    force, change = [], []
+    for i, r in enumerate(full.runs()):
+        res = jaxfric.simulate(run_model(model, i), r.t, r.x, r.v, load=r.load, a=r.a,
+                               full_output=True)
+        parts = [np.asarray(p, float) for k, p in res.parts.items()
+                 if k not in ("depth", "base") and np.shape(p) == r.t.shape]
+        force.append(np.asarray(res.force, float))
+        change.append(np.r_[0.0, sum(np.abs(np.diff(p)) for p in parts or [force[-1]])])
+    return np.concatenate(force), np.concatenate(change)
+
+
+def _spread(d: Data, change: np.ndarray, m: int) -> np.ndarray:
     """About `m` samples of each run in proportion to its length (indices into `d`),
-    evenly spaced in ``u = (t - t_0) / T + W / W_total``: time, and the total variation
-    W of the base model's force `ref` simulated on every sample. Half of them lie evenly
-    in time, half where the model's force, and so its state, changes; the first and last
-    sample of each run are kept."""
+    evenly spaced in ``u = (t - t_0) / T + W / W_total``: time, and W, the cumulated
+    change of the base model's states (`change` per sample, `_full_rate`). Half of them
+    lie evenly in time, half where the states change; the first and last sample of each
+    run are kept."""
     out = []
     for sl in d.slices():
-        t, f = d.t[sl], ref[sl]
-        w = np.r_[0.0, np.cumsum(np.abs(np.diff(f)))]
+        t = d.t[sl]
+        w = np.cumsum(np.r_[0.0, change[sl][1:]])
         u = (t - t[0]) / max(t[-1] - t[0], 1e-300) + (w / w[-1] if w[-1] > 0 else 0.0)
         mi = max(2, round(m * t.size / d.t.size))
         pick = np.searchsorted(u, np.linspace(0.0, u[-1], mi))
@@ -187,11 +207,11 @@ def _search_copy(full: Data, model, m: int, log) -> tuple[Data, np.ndarray, str]
     the lag's time constant. Both are kept here. Every sample when no copy of at most half
     of them is faithful."""
     sigma = noise_level(full.F)
-    ref = full.simulate(model)
+    ref, change = _full_rate(full, model)
     turns = _reversals(full)
     words = ""
     while 2 * m <= full.t.size:
-        copy, idx = full.take(np.r_[_spread(full, ref, m), turns])
+        copy, idx = full.take(np.r_[_spread(full, change, m), turns])
         if 2 * idx.size > full.t.size:
             break
         err = float(np.sqrt(np.mean((copy.simulate(model) - ref[idx]) ** 2)))
@@ -422,7 +442,7 @@ def diagnose(
                                range(len(getattr(model, "effects", ()))), full, full, log, "")
         copy, pick, faithful = _search_copy(full, base_full.fit_model, search_samples, log)
         search = (f"effects searched on {copy.t.size} of the {n} samples (evenly in time "
-                  f"and in the base model's force change, every reversal kept; {faithful}); "
+                  f"and in the base model's state changes, every reversal kept; {faithful}); "
                   f"the baseline and final model refitted on all {n}"
                   if copy.t.size < n else faithful)
     if search:
