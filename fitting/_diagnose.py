@@ -19,15 +19,16 @@ sample first (that fit is the baseline reported), is simulated on every sample, 
 copy keeps what its states need: the exact reversal points, and dense samples where its
 presliding and lag change fast (after reversals and starts, through a steep Stribeck
 curve), which a copy of one sample in k smears over its long steps. The copy is faithful
-when the base model simulated on it is within the force's noise of its full-rate
-simulation; its size is doubled until it is. It keeps the full-rate velocity and
-acceleration estimates at its samples, so an effect's relation to them is kept; the force
-is not averaged, which would smear short accelerations. Its time column is uneven: the
-held-out blocks are of equal duration (`fitting._select.time_block_folds`), and the
-search's errors (training and held out) weigh the stretches where the states change fast
-more than the record does. The final model is then refitted on every sample from where
-the search left it, and the errors of the fits on every sample are reported (the held-out
-errors are the search's cross-validation).
+when the base model and the base models the search tries instead (started from its
+fit) simulated on it are within the force's noise of their full-rate simulations; its
+size is doubled until it is. It keeps the full-rate velocity and acceleration estimates
+at its samples, so an effect's relation to them is kept; the force is not averaged, which
+would smear short accelerations. Its time column is uneven: the held-out blocks are of
+equal duration (`fitting._select.time_block_folds`), and the search's errors (training
+and held out) weigh the stretches where the states change fast more than the record does.
+The final model is then refitted on every sample from where the search left it, and the
+errors of the fits on every sample are reported (the held-out errors are the search's
+cross-validation).
 """
 
 from collections.abc import Callable, Sequence
@@ -48,6 +49,7 @@ from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
 from ._select import (
     _blocks,
+    _replaced,
     Data,
     Fitter,
     held_out_sse,
@@ -193,34 +195,43 @@ def _spread(d: Data, change: np.ndarray, m: int) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _search_copy(full: Data, model, m: int, log) -> tuple[Data, np.ndarray, str]:
+def _search_copy(full: Data, model, m: int, log, others=()) -> tuple[Data, np.ndarray, str]:
     """The samples a diagnosis searches on, their indices into `full`, and what was
-    measured, in words: about `m` (`_spread`) and every reversal with the sample before it
-    (`_reversals`), `m` doubled until the copy is faithful: `model` (the base model fitted
-    on every sample: the model the search starts from and compares against) simulated on
-    the copy is within the force's noise (`noise_level`), RMS, of its simulation on every
-    sample. A state model integrates its presliding and lag over each step of its time
-    column (`t` may be uneven), so a copy is another discretisation. A copy one sample in
-    k misses the reversal points (the memory's branch starts) and charges the lag's
-    forcing over a long step after each reversal and start at the end of the step, where
-    the presliding factor of that forcing has grown: an error that outlasts the step by
-    the lag's time constant. Both are kept here. Every sample when no copy of at most half
-    of them is faithful."""
+    measured, in words: about `m` (`_spread`, by the state changes of every model) and
+    every reversal with the sample before it (`_reversals`), `m` doubled until the copy is
+    faithful: `model` (the base model fitted on every sample: the model the search starts
+    from and compares against) and each of `others` (``[(name, model)]``: the base models
+    the search tries instead, started from that fit) simulated on the copy are within the
+    force's noise (`noise_level`), RMS, of their simulations on every sample. A state
+    model integrates its presliding and lag over each step of its time column (`t` may be
+    uneven), so a copy is another discretisation. A copy one sample in k misses the
+    reversal points (the memory's branch starts) and charges the lag's forcing over a long
+    step after each reversal and start at the end of the step, where the presliding
+    factor of that forcing has grown: an error that outlasts the step by the lag's time
+    constant. Both are kept here. Every sample when no copy of at most half of them is
+    faithful."""
     sigma = noise_level(full.F)
-    ref, change = _full_rate(full, model)
+    models = [("the base model", model), *others]
+    sims = [_full_rate(full, mod) for _, mod in models]
+    change = sum(c for _, c in sims)
     turns = _reversals(full)
     words = ""
     while 2 * m <= full.t.size:
         copy, idx = full.take(np.r_[_spread(full, change, m), turns])
         if 2 * idx.size > full.t.size:
             break
-        err = float(np.sqrt(np.mean((copy.simulate(model) - ref[idx]) ** 2)))
+        errs = [float(np.sqrt(np.mean((copy.simulate(mod) - ref[idx]) ** 2)))
+                for (_, mod), (ref, _) in zip(models, sims)]
+        worst = int(np.argmax(errs))
+        err, name = errs[worst], models[worst][0]
         if err <= sigma:
-            return copy, idx, (f"{words}its simulation differs from the full-rate one by "
-                               f"{err:.2g} N RMS, within the force's noise, {sigma:.2g} N")
-        words += f"{idx.size} samples would change the simulation by {err:.2g} N RMS; "
-        log(f"{idx.size} samples would change the base model's simulation by {err:.2g} N "
-            f"RMS, more than the force's noise ({sigma:.2g} N): a denser copy")
+            return copy, idx, (f"{words}{'its' if len(models) == 1 else 'their'} "
+                               f"simulation{'s differ' if len(models) > 1 else ' differs'} "
+                               f"from the full-rate one by at most {err:.2g} N RMS, within "
+                               f"the force's noise, {sigma:.2g} N")
+        words += f"{idx.size} samples would change {name}'s simulation by {err:.2g} N RMS; "
+        log(f"{idx.size} samples would change {name}'s simulation by {err:.2g} N RMS, more "
+            f"than the force's noise ({sigma:.2g} N): a denser copy")
         m *= 2
     copy, idx = full.take(np.arange(full.t.size))
     return copy, idx, (f"not subsampled: {words.rstrip('; ')}, more than the force's "
@@ -432,6 +443,8 @@ def diagnose(
     if unknown:
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {leaf_names(model)}")
+    if base_models is None:
+        base_models = [(f"GMS with {GMS_ELEMENTS} elements", _richer(full.longest()))]
     n = full.t.size
     base_full, search = None, ""
     copy, pick = full, np.arange(n)
@@ -440,7 +453,9 @@ def diagnose(
         log(f"fitting the base model on all {n} samples ...")
         base_full = _final_fit(Fitter(full, fixed, max_steps), model,
                                range(len(getattr(model, "effects", ()))), full, full, log, "")
-        copy, pick, faithful = _search_copy(full, base_full.fit_model, search_samples, log)
+        fit = base_full.fit_model
+        tried = [(name, _replaced(make, fit)) for name, make in base_models]
+        copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
         search = (f"effects searched on {copy.t.size} of the {n} samples (evenly in time "
                   f"and in the base model's state changes, every reversal kept; {faithful}); "
                   f"the baseline and final model refitted on all {n}"
@@ -452,8 +467,6 @@ def diagnose(
     names = effect_names(effects, present | _contained(model, tuple(fixed)) if not effects
                          else present, rotary, full.load is not None)
     fitter = Fitter(copy, fixed, max_steps, log)
-    if base_models is None:
-        base_models = [(f"GMS with {GMS_ELEMENTS} elements", _richer(copy.longest()))]
     rounds = select(fitter, model, names, folds, rules,
                     base_options=lambda: list(base_models), log=log)
     masks = _masks(full)

@@ -147,3 +147,25 @@ def test_emps_copy_follows_the_states_not_their_sum():
                      _diagnose._reversals(full)]
     c, i = full.take(by_force)
     assert np.sqrt(np.mean((c.simulate(m) - ref[i]) ** 2)) > sigma
+
+
+def test_the_copy_is_faithful_for_the_base_models_the_search_tries_too():
+    """The copy made for the base model alone need not carry another model the search
+    tries (here one with a steep Stribeck drop at 5 mm/s and a fast lag, as on EMPS)
+    within the noise; the copy made for both does."""
+    full, start = _record("gms_power", "two-state", 2e-3, motion="point_to_point",
+                          duration=30.0)
+    other = eqx.tree_at(lambda m: (m.stribeck.Fs, m.stribeck.Vs, m.stribeck.delta, m.C),
+                        start, (5 * start.stribeck.Fc, np.float64(5e-3), np.float64(10.0),
+                                np.float64(1e3)))
+    sigma = _diagnose.noise_level(full.F)
+    ref = full.simulate(other)
+
+    def error(copy, idx):
+        return np.sqrt(np.mean((copy.simulate(other) - ref[idx]) ** 2))
+
+    alone, idx, _ = _diagnose._search_copy(full, start, 5000, _quiet)
+    assert 2 * alone.t.size <= full.t.size and error(alone, idx) > sigma
+    copy, idx, words = _diagnose._search_copy(full, start, 5000, _quiet, [("other", other)])
+    assert 2 * copy.t.size <= full.t.size and "their simulations differ" in words
+    assert error(copy, idx) <= sigma
