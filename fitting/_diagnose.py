@@ -145,9 +145,10 @@ def noise_level(F) -> float:
 
 def _reversals(d: Data) -> np.ndarray:
     """The samples (indices into `d`) at which a memory model's direction of motion
-    changes, each with the sample before it (its reversal point, ``x_prev``); the first
-    motion too. The direction is `jaxfric.motion.Motion`'s: the sign of the velocity made
-    consistent with the position step (`jaxfric.motion.consistent_velocity`)."""
+    (-1, 0 or 1) changes: every reversal, start and stop, each with the sample before it
+    (a reversal's point, ``x_prev``). The direction is `jaxfric.motion.Motion`'s: the sign
+    of the velocity made consistent with the position step
+    (`jaxfric.motion.consistent_velocity`)."""
     out = []
     for sl, r in zip(d.slices(), d.runs()):
         dt = np.diff(r.t, prepend=r.t[:1])
