@@ -11,10 +11,10 @@ parameter not already in the model (those of an angle only on rotary data, those
 only with a load signal), and a richer base model (`_richer`: a GMS with 20 elements
 started at the fitted two-state model's presliding curve).
 
-A long record (at least twice `search_samples` samples) is searched on a copy of about
-`search_samples` samples (`_search_copy`), half evenly in time and half evenly in the
-change of the base model's states (its parts: hysteresis, lag, elements), plus every
-start, stop and reversal with the sample before it: the base model, fitted on every
+A long record (at least twice `search_samples` samples) is searched on a copy
+(`_search_copy`): about `search_samples` samples evenly in time (one in k), as many again
+evenly in the change of the base model's states (its parts: hysteresis, lag, elements),
+and every start, stop and reversal with the sample before it: the base model, fitted on every
 sample first (that fit is the baseline reported), is simulated on every sample, and the
 copy keeps what its states need: the exact reversal points, and dense samples where its
 presliding and lag change fast (after reversals and starts, through a steep Stribeck
@@ -180,17 +180,18 @@ def _full_rate(full: Data, model) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _spread(d: Data, change: np.ndarray, m: int) -> np.ndarray:
-    """About `m` samples of each run in proportion to its length (indices into `d`),
-    evenly spaced in ``u = (t - t_0) / T + W / W_total``: time, and W, the cumulated
-    change of the base model's states (`change` per sample, `_full_rate`). Half of them
-    lie evenly in time, half where the states change; the first and last sample of each
-    run are kept."""
+    """About `m` samples of each run evenly in time (one in ``k = n / m``), and as many
+    again evenly in W, the cumulated change of the base model's states (`change` per
+    sample, `_full_rate`), each run's share in proportion to its length (indices into
+    `d`): ``2 m`` samples evenly spaced in ``u = (t - t_0) / T + W / W_total``. So every
+    stretch is sampled at least as densely as one in k, and where the states change
+    fast, densely; the first and last sample of each run are kept."""
     out = []
     for sl in d.slices():
         t = d.t[sl]
         w = np.cumsum(np.r_[0.0, change[sl][1:]])
         u = (t - t[0]) / max(t[-1] - t[0], 1e-300) + (w / w[-1] if w[-1] > 0 else 0.0)
-        mi = max(2, round(m * t.size / d.t.size))
+        mi = max(2, round(2 * m * t.size / d.t.size))
         pick = np.searchsorted(u, np.linspace(0.0, u[-1], mi))
         out.append(sl.start + np.r_[np.minimum(pick, t.size - 1), t.size - 1])
     return np.concatenate(out)
@@ -457,8 +458,9 @@ def diagnose(
         fit = base_full.fit_model
         tried = [(name, _replaced(make, fit)) for name, make in base_models]
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
-        search = (f"effects searched on {copy.t.size} of the {n} samples (evenly in time "
-                  f"and in the base model's state changes, every reversal kept; {faithful}); "
+        search = (f"effects searched on {copy.t.size} of the {n} samples (about "
+                  f"{search_samples} evenly in time, as many where the base model's states "
+                  f"change, every reversal kept; {faithful}); "
                   f"the baseline and final model refitted on all {n}"
                   if copy.t.size < n else faithful)
     if search:
