@@ -185,24 +185,28 @@ def run_case(case: dict) -> dict:
 def clean_holdout(case: dict, start) -> float:
     """Held-out RMSE (N) of the baseline model on the file's clean twin (same motion,
     encoder and noise: `measurement` seeds them by file), cross-validated as the diagnosis
-    cross-validates its baseline (the same search copy, blocks and folds): the error the
-    baseline would have if nothing were missing."""
+    cross-validates its baseline (its search copy of a long record, blocks and folds):
+    the error the baseline would have if nothing were missing."""
     import fitting
-    from fitting._diagnose import SEARCH_SAMPLES
-    from fitting._select import time_block_folds
+    from fitting._diagnose import _record, _richer, _search_copy, GMS_ELEMENTS, SEARCH_SAMPLES
+    from fitting._select import _replaced, time_block_folds
 
     if not case["hidden"]:
         return float("nan")
-    t, x, F = _measure(case, ())
-    v, a = fitting.estimate_derivatives(t, x)
-    k = t.size // SEARCH_SAMPLES if t.size >= 2 * SEARCH_SAMPLES else 1
-    t, x, F, v, a = (arr[::k] for arr in (t, x, F, v, a))
+    full, _ = _record(*_measure(case, ()), None, None, None, "central", None)
+    copy = full
+    if full.t.size >= 2 * SEARCH_SAMPLES:
+        fitted = fitting.fit(start, full.t, full.x, full.F, full.v, a=full.a,
+                             max_steps=150).fit_model
+        tried = [(f"GMS with {GMS_ELEMENTS} elements", _replaced(_richer(full), fitted))]
+        copy, _, _ = _search_copy(full, fitted, SEARCH_SAMPLES, lambda *_: None, tried)
     rules = fitting.DiagnosisRules()
     sse = 0.0
-    for train, test in time_block_folds(t, rules.blocks, rules.folds):
-        res = fitting.fit(start, t, x, F, v, a=a, weights=train, max_steps=150)
-        sse += float(np.sum(((np.asarray(res.prediction) - F) ** 2)[test > 0]))
-    return float(np.sqrt(sse / t.size))
+    for train, test in time_block_folds(copy.t, rules.blocks, rules.folds):
+        res = fitting.fit(start, copy.t, copy.x, copy.F, copy.v, a=copy.a, weights=train,
+                          max_steps=150)
+        sse += float(np.sum(((np.asarray(res.prediction) - copy.F) ** 2)[test > 0]))
+    return float(np.sqrt(sse / copy.t.size))
 
 
 def absorbed(row: dict) -> bool:
