@@ -22,8 +22,10 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    fold's training samples, its grid start picked again on those samples
    (`Fitter.cross_validate_nested`); a base-model option, which does not contain the
    current model, is refitted from its own start (`Fitter.cross_validate`);
-3. an option qualifies when its held-out gain, block by block (each contiguous run of a
-   fold's test samples is a block), has a mean above `z` standard errors, every fitted
+3. an option qualifies when ``log(SSE_current / SSE_option)`` of the held-out samples,
+   block by block (each contiguous run of a fold's test samples is a block), has a mean
+   above `z` standard errors (`block_z`; the blocks of one fold counted as one piece of
+   evidence where they move together, `standard_error`), every fitted
    parameter is in its physical range (``param(..., physical=(lo, hi))``) and its fit on
    every sample ended by a rule of its own (`_converged`); of those that qualify, the
    one with the largest held-out gain is added (``z`` decides whether an option
@@ -124,6 +126,12 @@ class Option:
     unconverged: str = ""  # "" when its fit on every sample converged, else why not
     cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
     make: object = None  # a base-model option: how its plain model is made (`_replaced`)
+    #: Per block of the rule (`_blocks`, in order): its fold, the held-out SSE the current
+    #: model leaves in it and what this option removes from that (N^2; set by `judge`), so
+    #: that other rules can be evaluated on a recorded run without refitting.
+    block_folds: list = dataclasses.field(default_factory=list)
+    block_ref: list = dataclasses.field(default_factory=list)
+    block_gains: list = dataclasses.field(default_factory=list)
 
     def _note(self, what: str, res) -> None:
         if not _converged(res):
@@ -285,16 +293,50 @@ def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
     SSE) and ``z``: the mean block gain over its standard error. The current model's
     held-out predictions are its `fold_refs` when set (`Fitter.reference`)."""
     ref = current.fold_refs or current.fold_preds
-    diffs, total = [], 0.0
+    option.block_folds, option.block_ref, option.block_gains = [], [], []
     for k, idx in _blocks(folds):
         r0 = ref[k][idx] - F[idx]
         r1 = option.fold_preds[k][idx] - F[idx]
-        diffs.append(float(r0 @ r0 - r1 @ r1))
-        total += float(r0 @ r0)
-    d = np.asarray(diffs)
-    se = np.std(d, ddof=1) / np.sqrt(d.size) if d.size > 1 else np.inf
+        option.block_folds.append(k)
+        option.block_ref.append(float(r0 @ r0))
+        option.block_gains.append(float(r0 @ r0 - r1 @ r1))
+    d = np.asarray(option.block_gains)
+    total = float(np.sum(option.block_ref))
     option.gain = float(d.sum() / total) if total > 0 else 0.0
-    option.z = float(d.mean() / se) if se > 0 else (np.inf if d.mean() > 0 else 0.0)
+    option.z = block_z(option.block_ref, option.block_gains, option.block_folds)
+
+
+def block_z(ref, gains, folds) -> float:
+    """The rule's statistic: the mean over blocks of ``log(SSE_current / SSE_option)``
+    (held out, block by block), over its standard error (`standard_error`)."""
+    ref = np.maximum(np.asarray(ref, float), np.finfo(float).tiny)
+    new = np.maximum(ref - np.asarray(gains, float), np.finfo(float).tiny)
+    r = np.log(ref / new)
+    se = standard_error(r, np.asarray(folds))
+    return float(r.mean() / se) if se > 0 else (np.inf if r.mean() > 0 else 0.0)
+
+
+def standard_error(gains: np.ndarray, folds: np.ndarray) -> float:
+    """The standard error of the mean block gain: the larger of (a) the blocks taken as
+    independent (their standard deviation over sqrt(B)) and (b) the blocks of one fold
+    taken together (the cluster-robust standard error of the mean, by fold sums, with its
+    small-sample factor K/(K-1)). The blocks of a fold share one fitted model, so an
+    error of that fit (parameters bent by that fold's training data) moves them together;
+    (b) carries it, (a) does not. Balanced, (b)^2 is the one-way ANOVA's between-fold mean
+    square over B, so the larger of the two is the random-effects estimate of the
+    variance of the mean with the between-fold variance truncated at 0. Infinite for one
+    block."""
+    d, f = np.asarray(gains, float), np.asarray(folds)
+    B = d.size
+    if B < 2:
+        return np.inf
+    independent = np.std(d, ddof=1) / np.sqrt(B)
+    ks = np.unique(f)
+    if ks.size < 2:
+        return float(independent)
+    dev = np.array([np.sum(d[f == k] - d.mean()) for k in ks])
+    clustered = np.sqrt(ks.size / (ks.size - 1) * np.sum(dev**2)) / B
+    return float(max(independent, clustered))
 
 
 def held_out_sse(option: Option, folds, F: np.ndarray) -> float:
