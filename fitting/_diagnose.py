@@ -74,8 +74,8 @@ def _richer(longest: Data):
     """The default base-model option, as a function of the fitted plain model: a GMS with
     `GMS_ELEMENTS` elements started where a fitted two-state model is
     (`fitting._start.gms_like`: its presliding curve, Stribeck curve and lag), so its
-    refit can only improve on the fit; for another family, read off the longest run
-    (`_from_data`)."""
+    refit starts where the fit is (and in the fit's optimum); for another family, read
+    off the longest run (`_from_data`)."""
     data = _from_data(longest)
 
     def make(plain):

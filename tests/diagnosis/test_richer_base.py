@@ -86,3 +86,29 @@ def test_a_curve_that_is_not_concave_has_no_gms_start():
     assert gms_like(convex, 20) is None
     concave = eqx.tree_at(lambda t: t.shape, convex, jaxfric.PowerShape(l1=4e-6, n=3.0))
     assert isinstance(gms_like(concave, 20), jaxfric.GMS)
+
+
+def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
+    """A two-state fit in a poor optimum would hand it to `gms_like`; the GMS read off the
+    data is a second option, judged by the same rule (`default_base_models`). A GMS or
+    Tustin base model has no such start to lose, and gets one option."""
+    from fitting._candidates import Data
+    from fitting._diagnose import default_base_models, GMS_ELEMENTS
+    from tests.fitting.test_fit_properties import _motion
+
+    t, x = _motion()
+    m = _two_state()
+    F = np.asarray(jaxfric.simulate(m, t, x))
+    data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
+    options = default_base_models(m + (fx.Offset(offset=0.5),), data)
+    assert [n for n, _ in options] == [f"GMS with {GMS_ELEMENTS} elements",
+                                       f"GMS {GMS_ELEMENTS} from the data"]
+    fitted = eqx.tree_at(lambda m: m.C, m, np.float64(1e-3))  # a frozen lag
+    started, read = (make(fitted) for _, make in options)
+    assert float(started.C) == pytest.approx(1e-3)  # the fit's optimum, handed on
+    assert isinstance(read, jaxfric.GMS) and read.nu.shape == (GMS_ELEMENTS,)
+    assert float(read.C) != pytest.approx(1e-3)  # read off the data, whatever the fit
+    assert read is options[1][1](m)  # made once
+    gms = gms_like(m, 5)
+    assert [n for n, _ in default_base_models(gms, data)] == [
+        f"GMS with {GMS_ELEMENTS} elements"]
