@@ -38,6 +38,7 @@ import numpy as np
 
 import jaxfric
 from jaxfric import effects as fx
+from jaxfric.motion import consistent_velocity
 
 from ._candidates import _code, Candidate
 from ._data import check_dataset, Dataset
@@ -70,17 +71,16 @@ SEARCH_SAMPLES = 5_000
 GMS_ELEMENTS = 20
 
 
-def _richer(longest: Data):
+def _richer(fallback):
     """The default base-model option, as a function of the fitted plain model: a GMS with
     `GMS_ELEMENTS` elements started where a fitted two-state model is
     (`fitting._start.gms_like`: its presliding curve, Stribeck curve and lag), so its
-    refit starts where the fit is (and in the fit's optimum); for another family, read
-    off the longest run (`_from_data`)."""
-    data = _from_data(longest)
+    refit starts where the fit is (and in the fit's optimum); for another family,
+    `fallback` (`_from_data`: read off the longest run)."""
 
     def make(plain):
         gms = gms_like(plain, GMS_ELEMENTS)
-        return gms if gms is not None else data(plain)
+        return gms if gms is not None else fallback(plain)
 
     return make
 
@@ -106,11 +106,11 @@ def default_base_models(model, longest: Data) -> list[tuple[str, object]]:
     """The base-model options a diagnosis of `model` tries by default: a GMS with
     `GMS_ELEMENTS` elements started at the fit (`_richer`) and, when that start exists (a
     two-state model), one read off the data (`_from_data`); the rule judges both."""
-    name = f"GMS with {GMS_ELEMENTS} elements"
+    data = _from_data(longest)  # one start read off the data, made once, for both
     plain = model.without_effects() if getattr(model, "effects", ()) else model
-    out = [(name, _richer(longest))]
+    out = [(f"GMS with {GMS_ELEMENTS} elements", _richer(data))]
     if gms_like(plain, GMS_ELEMENTS) is not None:
-        out.append((f"GMS {GMS_ELEMENTS} from the data", _from_data(longest)))
+        out.append((f"GMS {GMS_ELEMENTS} from the data", data))
     return out
 
 
@@ -176,11 +176,9 @@ def _reversals(d: Data) -> np.ndarray:
     (`jaxfric.motion.consistent_velocity`)."""
     out = []
     for sl, r in zip(d.slices(), d.runs()):
-        dt = np.diff(r.t, prepend=r.t[:1])
-        dx = np.diff(r.x, prepend=r.x[:1])
-        ok = dt > 0
-        v = np.where(r.v * dx < 0, np.where(ok, dx / np.where(ok, dt, 1.0), 0.0), r.v)
-        d = np.sign(v)
+        v = consistent_velocity(r.v, np.diff(r.x, prepend=r.x[:1]),
+                                np.diff(r.t, prepend=r.t[:1]))
+        d = np.sign(np.asarray(v))
         turn = np.flatnonzero(d[1:] != d[:-1]) + 1
         out.append(sl.start + np.concatenate([turn - 1, turn]))
     return np.concatenate(out)
