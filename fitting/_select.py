@@ -156,18 +156,10 @@ def _converged(res) -> bool:
     (next to) nothing although its linear model predicts more: a kink of the cost, a local
     minimum of the cost as it is; what that point predicts held out is for the rule to
     judge). Not a fit cut at its step limit (it would go on), a failed solve, a stuck one,
-    or one failing `fit`'s own checks (R2, a parameter pinned at a bound). A result
-    without a stop kind is judged by its words (``stopped`` begins "NOT converged: " at a
-    kink, and has "; NOT converged" further on when the checks failed)."""
+    or one failing `fit`'s own checks (R2, a parameter pinned at a bound)."""
     if bool(np.asarray(res.result == optx.RESULTS.successful)):
         return True
-    stop = getattr(res, "stop", "")
-    if not stop:
-        stopped = str(res.stopped)
-        kink = (bool(np.asarray(res.result == optx.RESULTS.nonlinear_divergence))
-                and stopped.startswith("NOT converged: ") and "; NOT converged" not in stopped)
-        stop = "kink" if kink else "other"
-    return stop == "kink" and bool(np.isfinite(np.asarray(res.rmse)))
+    return res.stop == "kink" and bool(np.isfinite(np.asarray(res.rmse)))
 
 
 class Fitter:

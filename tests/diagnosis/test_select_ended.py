@@ -18,24 +18,30 @@ STALL = ("NOT converged: the steps stalled: the last 8 gained under 0.01 noise v
          "(a kink of the cost) and the fit may be stuck")
 
 
-def _res(result, stopped, rmse=0.1):
-    return types.SimpleNamespace(result=result, stopped=stopped, rmse=np.asarray(rmse))
+def _res(result, stopped, stop, rmse=0.1):
+    """A fit's result as `fit` sets it: result code, words and stop kind
+    (`fitting._result.STOPS`)."""
+    return types.SimpleNamespace(result=result, stopped=stopped, stop=stop,
+                                 rmse=np.asarray(rmse))
 
 
 @pytest.mark.parametrize("res, ended", [
-    (_res(optx.RESULTS.successful, "the Gauss-Newton decrease left is 0.3 noise variances"),
-     True),
-    (_res(optx.RESULTS.nonlinear_divergence, STALL), True),
-    (_res(optx.RESULTS.nonlinear_max_steps_reached, "max_steps = 300 reached"), False),
-    (_res(optx.RESULTS.nonlinear_divergence, STALL, rmse=np.nan), False),
+    (_res(optx.RESULTS.successful, "the Gauss-Newton decrease left is 0.3 noise variances",
+          "converged"), True),
+    (_res(optx.RESULTS.nonlinear_divergence, STALL, "kink"), True),
+    (_res(optx.RESULTS.nonlinear_max_steps_reached, "max_steps = 300 reached", "max_steps"),
+     False),
+    (_res(optx.RESULTS.nonlinear_divergence, STALL, "kink", rmse=np.nan), False),
     (_res(optx.RESULTS.nonlinear_divergence, STALL + "; NOT converged: pinned at a bound "
-          "of its transform: Fs"), False),
+          "of its transform: Fs", "checks"), False),
     (_res(optx.RESULTS.nonlinear_divergence, "NOT converged: the solver's own test fired "
           "(last step within rtol/atol) before the fit settled: 933 noise variances "
-          "predicted left"), True),
+          "predicted left", "kink"), True),
     (_res(optx.RESULTS.nonlinear_divergence, "the solver's own test fired without moving "
-          "the fit although the gradient is not nil (cosine 1e-2): the fit is stuck"), False),
-    (_res(optx.RESULTS.nonlinear_divergence, "the solver stopped (non-finite cost)"), False),
+          "the fit although the gradient is not nil (cosine 1e-2): the fit is stuck", "stuck"),
+     False),
+    (_res(optx.RESULTS.nonlinear_divergence, "the solver stopped (non-finite cost)",
+          "failed"), False),
 ], ids=["converged", "stalled at a kink", "step limit", "non-finite", "pinned",
         "step test before settling", "stuck at its start",
         "failed"])
