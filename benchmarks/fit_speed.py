@@ -49,9 +49,10 @@ cut short (8 steps, 10 evaluations: a smoke test of the script for
 tests/project/test_benchmark_scripts.py, not a measurement). Writes benchmarks/fit_speed.json
 unless ``--json`` says otherwise. JSON: ``rows`` (two-state on the mixed motion, one per
 size), ``cells`` (every motion x model x size: ``motion, model, n, noise, jaxfric{first_s,
-warm_s, steps, rmse, status, stopped, undetermined}, scipy{first_s, warm_s, steps, nfev,
+warm_s, steps, rmse, status, stop, stopped, undetermined}, scipy{first_s, warm_s, steps, nfev,
 rmse, status, message, baseline}, ratio_warm, ratio_first, rmse_rel``), ``goals`` (one per
-cell and target, with ``met``) and ``summary``.
+cell and target, with ``met``), ``summary``, the ``machine`` (`benchmarks/machine.py`) and
+the ``date_utc`` of the run that wrote the file.
 """
 
 from __future__ import annotations
@@ -59,7 +60,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import time
 from pathlib import Path
 
@@ -147,7 +147,7 @@ def fit_jaxfric(start, t, x, F, max_steps: int) -> dict:
     res = fitting.fit(start, t, x, F, max_steps=max_steps)
     rmse = float(res.rmse)  # blocks until done
     return {"seconds": time.perf_counter() - tick, "steps": int(res.num_steps),
-            "rmse": rmse, "status": res.status, "stopped": res.stopped,
+            "rmse": rmse, "status": res.status, "stop": res.stop, "stopped": res.stopped,
             "undetermined": list(res.undetermined)}
 
 
@@ -242,7 +242,8 @@ def bench_cell(motion: str, model: str, n: int, numba_compile: float, max_steps:
         "noise_floor_rmse": floor,
         "jaxfric": {"first_s": first["seconds"], "warm_s": warm["seconds"],
                     "steps": warm["steps"], "steps_first": first["steps"],
-                    "rmse": warm["rmse"], "status": warm["status"], "stopped": warm["stopped"],
+                    "rmse": warm["rmse"], "status": warm["status"], "stop": warm["stop"],
+                    "stopped": warm["stopped"],
                     "undetermined": warm["undetermined"]},
         "scipy": sp,
         "ratio_warm": sp["warm_s"] / warm["seconds"],
@@ -379,6 +380,11 @@ def _status_note(cells) -> str | None:
 
 
 def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
+    try:  # run as a script: benchmarks/ itself is sys.path[0]
+        from machine import machine_facts
+    except ImportError:
+        from benchmarks.machine import machine_facts
+
     cells = sorted(kept + new, key=lambda c: (list(MODELS).index(c["model"]), c["n"],
                                               list(MOTIONS).index(c["motion"])))
     every = goals(cells)
@@ -386,9 +392,9 @@ def write(args, factors, numba_compile, kept, new, partial: bool) -> None:
     result = {
         "command": "python benchmarks/fit_speed.py" + (" --quick" if args.quick else ""),
         "quick": args.quick, "partial": partial,
-        "machine": {"cpu_count": os.cpu_count(), "python": platform.python_version(),
-                    "jax": jax.__version__, "numba": nb.numba.__version__,
+        "machine": {**machine_facts(), "numba": nb.numba.__version__,
                     "load_average_end": list(os.getloadavg())},
+        "date_utc": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
         "start_factors": factors, "numba_compile_s": numba_compile,
         "rows": rows, "cells": cells, "goals": every, "targets": TARGETS,
         "summary": {"goals": len(every), "met": sum(g["met"] for g in every),

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fitting._result import STOPS
+
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -70,6 +72,8 @@ def test_fit_speed_runs_and_writes_json(tmp_path):
     assert {g["goal"] for g in data["goals"]} == {"steps", "warm speed-up",
                                                   "first-call speed-up", "RMSE vs scipy"}
     assert data["cells"] == data["rows"] and not data["partial"]
+    assert row["jaxfric"]["stop"] in STOPS  # why the fit stopped, as a kind
+    assert data["machine"]["cpu"] and data["date_utc"]  # the page names machine and date
 
 
 @pytest.mark.slow
