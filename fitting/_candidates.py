@@ -177,12 +177,14 @@ def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
 def physical(effect) -> str:
     """Why `effect`'s fitted values are not physical ("" when they are), from each
     field's ``physical`` range (of every run's value, for a per-run parameter)."""
-    effect = plain_effect(effect)
+    wrapped, effect = effect, plain_effect(effect)
     for f in dataclasses.fields(effect):
         rng = f.metadata.get("physical")
         if rng is None:
             continue
-        val = np.asarray(getattr(effect, f.name), float)
+        # every run's value: a relative per-run leaf stores all runs' but its reference's
+        val = np.asarray(wrapped.values(f.name) if f.name in getattr(wrapped, "fields", ())
+                         else getattr(effect, f.name), float)
         if np.any(val < rng[0]) or np.any(val > rng[1]):
             return f"{f.name} = {np.round(val, 6).tolist()} outside [{rng[0]}, {rng[1]}]"
     return ""

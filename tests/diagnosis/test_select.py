@@ -2,11 +2,14 @@
 `fitting.diagnose`, `fitting._rules`): its parts on small cases, and one whole
 diagnosis of a Tustin model on a short record (fast: a memoryless base model)."""
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import jaxfric
 from fitting import _select as S, diagnose
+from fitting._per_run import with_runs
 from fitting._rules import DiagnosisRules
 from jaxfric import effects as fx
 
@@ -111,6 +114,20 @@ def test_physical_ranges_come_from_field_metadata():
     assert S.physical(fx.Offset(offset=-3.0)) == ""  # an offset may have either sign
     assert S.switchable("inertia") and S.switchable("cogging")
     assert not S.switchable("presliding")  # no linear parameter to switch it off
+
+
+def test_physical_checks_every_runs_value_of_a_relative_per_run_parameter():
+    # A drift level is per run relative to a reference run, whose value the leaf does not
+    # store: run 2's level 1.5 (outside [-1, 1]) must be seen with run 2 the reference.
+    model = with_runs(jaxfric.paper.two_state() + fx.Drift(drift_level=0.2), 3)
+    (e,) = model.effects
+    e = eqx.tree_at(lambda e: e.effect.drift_level, e, jnp.array([1.5, 0.2]))
+    assert "drift_level" in S.physical(e)
+    moved = e.rereferenced(1)  # run 2's 1.5 is now the reference, not stored
+    assert np.all(np.abs(np.asarray(moved.effect.drift_level)) <= 1.0)
+    assert "drift_level" in S.physical(moved)
+    assert S.physical(eqx.tree_at(lambda e: e.effect.drift_level, e,
+                                  jnp.array([0.5, 0.2]))) == ""
 
 
 def test_start_effect_finds_the_cogging_period_on_its_grid():
