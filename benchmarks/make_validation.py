@@ -8,9 +8,10 @@ Reads, relative to the repository root: ``benchmarks/diagnosis_bench.json``,
 ``benchmarks/montecarlo_speed.json``, ``benchmarks/c_step.json``,
 ``benchmarks/diagnose_speed.json``, ``benchmarks/compiler_options.json`` and the real-data
 results ``docs/figures/emps_diagnosis.json`` and ``docs/figures/tribometer.json``. A
-missing file gives its section a line saying so. ``--check`` writes nothing and exits 1
-when the committed page differs from what the JSONs give (``tests/project/test_validation_page.py``
-does the same). Units: s, ns, N.
+missing file gives its section a line saying so. It also writes the bench's table per
+truth and motion into docs/diagnosis.md, between its `BENCH_MARKS` lines. ``--check``
+writes nothing and exits 1 when either committed page differs from what the JSONs give
+(``tests/project/test_validation_page.py`` does the same). Units: s, ns, N.
 """
 
 from __future__ import annotations
@@ -24,6 +25,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "validation.md"
+#: docs/diagnosis.md carries the bench's table per truth and motion between these lines.
+DIAGNOSIS_PAGE = ROOT / "docs" / "diagnosis.md"
+BENCH_MARKS = ("<!-- bench table: made by benchmarks/make_validation.py from "
+               "benchmarks/diagnosis_bench.json; do not edit -->", "<!-- end of bench table -->")
 SOURCES = {
     "diagnosis": "benchmarks/diagnosis_bench.json",
     "diagnosis_runs": "benchmarks/diagnosis_bench_runs.json",
@@ -95,6 +100,33 @@ def _ratio(k: int, n: int) -> str:
     return f"{k} of {n} ({100 * k / max(n, 1):.0f} %)"
 
 
+def bench_by_truth(d: dict) -> str:
+    """The bench per motion, truth, sampling interval, noise level and starting model: the
+    targets counted on each (``found / files``; clean files: those with something added),
+    and the median share of the excess error removed where the effect was found."""
+    rows = sorted([c.get("motion", "diagnosis"), truth, f"{1e3 * c['dt_s']:g}",
+                   f"{c['noise_N']:g}", c["start"], "{} / {}".format(*b["singles"]),
+                   "{} / {}".format(*b["pairs"]), f"{b['added_on_clean']} / {b['clean_files']}",
+                   "{} / {}".format(*b["found_half_excess_removed"]),
+                   _percent(b.get("median_excess_removed"))]
+                  for c in d["corners"] for truth, b in c["by_truth"].items())
+    return table(["motion", "truth", "dt [ms]", "noise [N]", "start", "single named first",
+                  "pair both found", "clean files with an addition", "half the excess removed",
+                  "excess removed (median)"], rows)
+
+
+def with_bench_table(page: str, d: dict | None) -> str:
+    """`page` (docs/diagnosis.md) with the text between `BENCH_MARKS` replaced by
+    `bench_by_truth` of the bench summary `d` (a line saying it is missing for None)."""
+    start, end = BENCH_MARKS
+    if start not in page or end not in page:
+        raise ValueError(f"{DIAGNOSIS_PAGE.name} lacks the bench table's marker lines")
+    body = (bench_by_truth(d) if d is not None else
+            f"No results: `{SOURCES['diagnosis']}` is missing.")
+    head, rest = page.split(start, 1)
+    return f"{head}{start}\n{body}\n{end}{rest.split(end, 1)[1]}"
+
+
 def section_diagnosis(d: dict) -> list[str]:
     corners = d["corners"]
     targets = d["targets"]
@@ -117,11 +149,6 @@ def section_diagnosis(d: dict) -> list[str]:
         ("half the excess error removed when found", _ratio(*h), "every file",
          h[0] == h[1] if h[1] else None),
     ]
-    per_corner = [[f"{1e3 * c['dt_s']:g}", f"{c['noise_N']:g}", c["start"],
-                   c.get("motion", "diagnosis"), ", ".join(c["truths"]),
-                   "{} / {}".format(*c["singles"]), "{} / {}".format(*c["pairs"]),
-                   c["added_on_clean"], _percent(c["median_excess_removed"])]
-                  for c in corners]
     effects = {}
     for c in corners:
         for name, e in c["by_effect"].items():
@@ -149,9 +176,8 @@ def section_diagnosis(d: dict) -> list[str]:
         f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
         f"the same file without it. {files} files in {len(corners)} corners.",
         goals_table(goals),
-        "Per corner (excess removed: median over the files where the effect was found):",
-        table(["dt [ms]", "noise [N]", "start", "motion", "truths", "single named first",
-               "pair both found", "added on clean", "excess removed"], per_corner),
+        "Per motion and truth: [Diagnose missing effects](diagnosis.md#how-well-it-works) "
+        "(generated from the same JSON).",
         "Per hidden effect, over all corners:",
         table(["hidden effect", "named first", "absorbed", "named first instead"],
               per_effect),
@@ -234,25 +260,33 @@ def _goal_rows(goals: list[dict]) -> list[tuple]:
     return out
 
 
-def _fit_cell(c: dict) -> list:
-    j, sp = c["jaxfric"], c["scipy"]
-    return [c["model"], c["motion"], f"{c['n']:.0e}".replace("e+0", "e"),
-            j.get("steps"), sp.get("steps"), fmt(c.get("ratio_warm")) + "x",
-            fmt(c.get("ratio_first")) + "x", f"{100 * c['rmse_rel']:+.2g} %"]
+def _fit_rows(cells: list[dict]) -> tuple[list[str], list[list]]:
+    """The fit-speed table: one row per model and motion, each column's values for every
+    size in one cell (``a / b``, sizes ascending, named in the header)."""
+    sizes = sorted({c["n"] for c in cells})
+    label = " / ".join(f"{n:.0e}".replace("e+0", "e") for n in sizes)
+    cols = [lambda c: c["jaxfric"].get("steps"), lambda c: c["scipy"].get("steps"),
+            lambda c: fmt(c.get("ratio_warm")) + "x", lambda c: fmt(c.get("ratio_first")) + "x",
+            lambda c: f"{100 * c['rmse_rel']:+.2g} %"]
+    rows = {}
+    for c in cells:
+        rows.setdefault((c["model"], c["motion"]), {})[c["n"]] = c
+    out = [[model, motion, *(" / ".join(fmt(col(by[n])) if n in by else "-" for n in sizes)
+                             for col in cols)] for (model, motion), by in rows.items()]
+    heads = ["steps", "scipy steps", "warm x scipy", "first x scipy", "RMSE vs scipy"]
+    return ["model", "motion", *(f"{h} ({label})" for h in heads)], out
 
 
 def section_fit_speed(d: dict) -> list[str]:
     goals = d.get("goals", [])
-    if "cells" in d:  # one row per model, motion and size; the goals' verdicts below it
+    if "cells" in d:  # one row per model and motion; the goals' verdicts below it
         missed = [g for g in goals if not g.get("met", True)]
         summary = d.get("summary", {})
         verdict = (f"{summary.get('met', len(goals) - len(missed))} of "
                    f"{summary.get('goals', len(goals))} goals met. Targets: <= 40 steps "
                    "everywhere, RMSE within 1 % of scipy's everywhere; for the two-state "
                    "model at 1e5 samples warm >= 5x and first call >= 2.5x scipy's time.")
-        body = [table(["model", "motion", "samples", "steps", "scipy steps", "warm x scipy",
-                       "first x scipy", "RMSE vs scipy"], [_fit_cell(c) for c in d["cells"]]),
-                verdict]
+        body = [table(*_fit_rows(d["cells"])), verdict]
         if missed:
             body.append(table(["missed", "model", "motion", "samples", "measured", "target"],
                               [[g["goal"], g.get("model"), g.get("motion"),
@@ -426,13 +460,19 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=PAGE, help="default: %(default)s")
     args = ap.parse_args(argv)
     text = render()
+    bench = ROOT / SOURCES["diagnosis"]
+    diag = with_bench_table(DIAGNOSIS_PAGE.read_text(),
+                            json.loads(bench.read_text()) if bench.is_file() else None)
+    pages = [(args.out, text), (DIAGNOSIS_PAGE, diag)]
     if args.check:
-        same = args.out.is_file() and args.out.read_text() == text
-        print(f"{args.out}: " + ("up to date" if same else "differs from the JSONs: run "
-                                 "python benchmarks/make_validation.py"))
-        return 0 if same else 1
-    args.out.write_text(text)
-    print(f"wrote {args.out} ({len(text.split())} words)")
+        stale = [p for p, t in pages if not (p.is_file() and p.read_text() == t)]
+        for p, _ in pages:
+            print(f"{p}: " + ("differs from the JSONs: run python benchmarks/make_validation.py"
+                              if p in stale else "up to date"))
+        return 1 if stale else 0
+    for p, t in pages:
+        p.write_text(t)
+        print(f"wrote {p} ({len(t.split())} words)")
     return 0
 
 

@@ -1,5 +1,6 @@
-"""docs/validation.md is what `benchmarks/make_validation.py` makes of the committed
-benchmark JSONs: no number on it can be edited by hand."""
+"""docs/validation.md, and the bench table of docs/diagnosis.md, are what
+`benchmarks/make_validation.py` makes of the committed benchmark JSONs: no number on them
+can be edited by hand."""
 
 import json
 import shutil
@@ -7,7 +8,15 @@ import subprocess
 import sys
 from pathlib import Path
 
-from benchmarks.make_validation import render, SOURCES
+import pytest
+
+from benchmarks.make_validation import (
+    bench_by_truth,
+    BENCH_MARKS,
+    render,
+    SOURCES,
+    with_bench_table,
+)
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,6 +30,21 @@ def test_the_committed_page_is_the_generated_one():
     assert page == render(ROOT), "run: python benchmarks/make_validation.py"
     # Other pages link to these anchors.
     assert [line for line in page.splitlines() if line.startswith("## ")] == HEADINGS
+
+
+def test_the_diagnosis_page_carries_the_generated_bench_table():
+    page = (ROOT / "docs" / "diagnosis.md").read_text()
+    bench = json.loads((ROOT / SOURCES["diagnosis"]).read_text())
+    assert page == with_bench_table(page, bench), "run: python benchmarks/make_validation.py"
+    table = bench_by_truth(bench)
+    assert f"{BENCH_MARKS[0]}\n{table}\n{BENCH_MARKS[1]}" in page
+    # one row per motion and truth of every corner
+    rows = sum(len(c["by_truth"]) for c in bench["corners"])
+    assert len(table.splitlines()) == 2 + rows
+    edited = page.replace(table.splitlines()[2], table.splitlines()[2].replace("|", "| 9", 2))
+    assert with_bench_table(edited, bench) == page  # a hand edit is overwritten
+    with pytest.raises(ValueError, match="marker"):
+        with_bench_table(page.replace(BENCH_MARKS[1], ""), bench)
 
 
 def _copy(tmp_path: Path) -> Path:
