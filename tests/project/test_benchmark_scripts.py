@@ -178,6 +178,8 @@ def test_diagnosis_bench_summary_counts(tmp_path):
              _row(["quadratic_drag"], [], before=0.105),  # absorbed (< 10 % over 0.1)
              _row(["quadratic_drag", "drift"], ["drift"]),  # the drag absorbed alone
              _row(["offset", "drift"], ["drift", "offset", "cogging"])]
+    first += [_row([], ["GMS 20 from the data"], truth="stiction"),  # not an effect
+              _row(["drift"], ["GMS with 20 elements", "drift"], truth="stiction")]
     later = [_row(["drift"], ["drift"], after=0.18)]  # re-run: found, 20 % removed
     other = [_row([], ["offset"], dt=0.005)]
     paths = []
@@ -192,12 +194,13 @@ def test_diagnosis_bench_summary_counts(tmp_path):
     out = bench.write_summary(summary, rows, runs)
     c10, c5 = out["corners"]
     assert (c10["dt_s"], c5["dt_s"], c5["added_on_clean"]) == (0.01, 0.005, 1)
-    assert c10["files"] == 6 and c10["singles"] == [2, 3]
-    assert c10["singles_not_absorbed"] == [2, 2]
+    assert c10["files"] == 8 and c10["singles"] == [3, 4]
+    assert c10["singles_not_absorbed"] == [3, 3]
+    assert c10["clean_files"] == 2 and c10["base_model_changed"] == [2, 8]
     assert c10["pairs"] == [1, 2] and c10["pairs_not_absorbed"] == [1, 1]
     assert c10["added_on_clean"] == 0 and c10["not_hidden_added"] == 1
-    assert c10["found_half_excess_removed"] == [2, 3]  # 60 %, 100 %, 20 %
-    assert c10["median_excess_removed"] == pytest.approx(0.6)
+    assert c10["found_half_excess_removed"] == [3, 4]  # 60 %, 100 %, 100 %, 20 %
+    assert c10["median_excess_removed"] == pytest.approx(0.8)
     assert c10["by_effect"]["quadratic_drag"] == {"files": 1, "named_first": 0,
                                                   "absorbed": 1, "instead": {"nothing": 1}}
     assert c10["by_pair"]["offset + drift"] == {"files": 1, "both_found": 1}
