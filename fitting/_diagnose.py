@@ -374,6 +374,7 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     worth = o.sse < (o.against if np.isfinite(o.against) else current.sse) - o.optimism
     why = (f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
            + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
+              "; not cross-validated (it cannot qualify)" if o.skipped else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (its second effect removes no more than fitting noise "
               "removes, 2 q s^2, beyond its better single)" if pair else

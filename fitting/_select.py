@@ -13,7 +13,10 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 1. each option is fitted jointly with the current model to convergence on every sample:
    its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
    best regresses the current residual, its linear ones at that regression's values, the
-   rest of the model at the current fit;
+   rest of the model at the current fit; a base-model option from its own start
+   (`_replaced`), in later rounds from its own fit of the round before with the current
+   model's effects at their fitted values (it starts where it ended, the effect just
+   added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
    q added coordinates remove when they fit only noise) is not cross-validated; of the
    others, the `tried` with the lowest training error are: refitted with each fold held
@@ -31,7 +34,8 @@ switches its effect on by freeing its parameters (the free set is data, not stru
    one with the largest held-out gain is added (``z`` decides whether an option
    qualifies, the held-out error which is added: forward selection by cross-validated
    error; an effect that predicts more of the held-out error is not pushed out by one
-   that predicts less, more evenly). Fold fits
+   that predicts less, more evenly). The physical range and the convergence are checked
+   first: an option that fails either is not cross-validated (it cannot qualify). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -126,6 +130,9 @@ class Option:
     unconverged: str = ""  # "" when its fit on every sample converged, else why not
     cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
     make: object = None  # a base-model option: how its plain model is made (`_replaced`)
+    #: Why an option among those tried was not cross-validated ("" when it was, or was not
+    #: among them): it cannot qualify (not physical, or its fit not converged).
+    skipped: str = ""
     #: Per block of the rule (`_blocks`, in order): its fold, the held-out SSE the current
     #: model leaves in it and what this option removes from that (N^2; set by `judge`), so
     #: that other rules can be evaluated on a recorded run without refitting.
@@ -364,6 +371,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                      result=fitter.last,
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
+    earlier = {}  # base-model option name -> its plain model fitted in the round before
     while len(rounds) < rules.max_added:
         resid = data.F - current.pred
         signals = _signals(data, current.fitted.without_effects())
@@ -376,8 +384,9 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             options.append(Option((n,), model, current.on | {i}))
         if not switched:
             for bname, make in base_options():
-                options.append(Option((bname,), _replaced(make, current.fitted), current.on,
-                                      base=True, make=make))
+                options.append(Option((bname,), _replaced(earlier.get(bname, make),
+                                                          current.fitted),
+                                      current.on, base=True, make=make))
         for o in options:
             _refit(fitter, o, current, log)
         options.sort(key=lambda o: o.sse)
@@ -399,9 +408,21 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
+        earlier = {o.name: _plain(o.fitted) for o in options
+                   if o.base and o.fitted is not None and _finite(o.fitted)}
         switched |= chosen.base
         current = chosen
     return rounds
+
+
+def _plain(model):
+    """`model` without its effects."""
+    return model.without_effects() if getattr(model, "effects", ()) else model
+
+
+def _finite(model) -> bool:
+    return all(bool(np.all(np.isfinite(np.asarray(leaf)))) for leaf in
+               jax.tree.leaves(eqx.filter(model, eqx.is_inexact_array)))
 
 
 def _replaced(make, model):
@@ -448,10 +469,19 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
 
 def _cross_validate(fitter, current, options, folds, rules, log):
     """Cross-validate `current` and `options`; the qualifying one of largest held-out
-    gain."""
+    gain. An option that cannot qualify whatever its held-out error (its fit on every
+    sample not physical or not converged: both known before the folds are fitted) is not
+    cross-validated (`Option.skipped` says why): the decision is the same, without its
+    fold fits."""
     fitter.cross_validate(current, folds)
     fitter.reference(current, folds)
     for o in options:
+        if o.physical or o.unconverged:
+            o.skipped = "; ".join(
+                w for w in (o.physical and f"not physical: {o.physical}",
+                            o.unconverged and f"not converged: {o.unconverged}") if w)
+            log(f"  {o.name}: not cross-validated, it cannot qualify ({o.skipped})")
+            continue
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
         if names and not o.base:
