@@ -35,6 +35,21 @@ class _Problem(eqx.Module):
     layout: _params.Layout
     paper_shape: bool = eqx.field(static=True)
     max_reversals: int | None = eqx.field(static=True, default=None)
+    #: None: the Jacobian has a column for every coordinate of ``y`` (the free set changes
+    #: nothing compiled). An int: only the free coordinates' columns are computed, in this
+    #: many slots (at least the number of free coordinates; `narrowed`).
+    width: int | None = eqx.field(static=True, default=None)
+
+    def narrowed(self) -> "_Problem":
+        """This problem with its Jacobian computed over the free coordinates only, in
+        slots of 8 (`width`: one compilation per width), when that is at most two thirds
+        of all coordinates; else unchanged. For a model most of whose parameters are held
+        (a diagnosis's superset of effects), where each held column costs as much as a free
+        one to compute and is then multiplied by 0."""
+        free = int(np.sum(np.asarray(self.layout.coordinate_mask())))
+        total = int(sum(self.layout.sizes))
+        width = 8 * -(-free // 8)
+        return dataclasses.replace(self, width=width) if 3 * width <= 2 * total else self
 
     def bounded(self, data: Dataset) -> "_Problem":
         """This problem with a static bound on the reversals of `data` (stacked, concrete
@@ -117,10 +132,20 @@ def _dense_forces_jvp(primals, tangents):
         out = _forces(yy, problem, data)
         return out[0], out
 
-    jac, out = jax.jacfwd(both, has_aux=True)(y)
     if t_y is None:
         t_y = jnp.zeros_like(y)
-    return out, (jac @ t_y, jnp.zeros_like(out[1]))
+    if problem.width is None:
+        jac, out = jax.jacfwd(both, has_aux=True)(y)
+        return out, (jac @ t_y, jnp.zeros_like(out[1]))
+    # `_Problem.narrowed`: the columns of the free coordinates only, `width` slots (the
+    # unused ones have a zero tangent); a held coordinate's column is 0 either way.
+    free = problem.layout.coordinate_mask() > 0
+    idx = jnp.nonzero(free, size=problem.width, fill_value=0)[0]
+    used = (jnp.arange(problem.width) < jnp.sum(free)).astype(y.dtype)
+    basis = jax.nn.one_hot(idx, y.size, dtype=y.dtype) * used[:, None]
+    _, cols, out = jax.vmap(lambda b: jax.jvp(both, (y,), (b,), has_aux=True),
+                            out_axes=(None, -1, None))(basis)
+    return out, (cols @ (t_y[idx] * used), jnp.zeros_like(out[1]))
 
 
 def _residuals(y, args):
