@@ -142,14 +142,33 @@ def build(directory: Path | None = None) -> Path:
         for name, text in texts.items():
             (Path(tmp) / name).write_text(text)
         out = Path(tmp) / library.name
-        cmd = [cxx, *FLAGS, "-isystem", include, "-o", str(out),
-               *[str(Path(tmp) / name) for name in SOURCES if name.endswith(".cc")]]
-        run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-        if run.returncode != 0:
-            last = (run.stderr.strip().splitlines() or ["(no message)"])[-1]
-            raise RuntimeError(f"{' '.join(cmd)} failed: {last}")
+        # Each source compiled on its own, all at once (they take seconds each, and the
+        # first run on a machine waits for them), then linked.
+        sources = [Path(tmp) / name for name in SOURCES if name.endswith(".cc")]
+        objects = [src.with_suffix(".o") for src in sources]
+        _run_all([[cxx, *FLAGS, "-c", "-isystem", include, "-o", str(obj), str(src)]
+                  for src, obj in zip(sources, objects)])
+        _run_all([[cxx, *FLAGS, "-o", str(out), *map(str, objects)]])
         os.replace(out, library)
     return library
+
+
+def _run_all(cmds) -> None:
+    """Run the commands `cmds` at once; `RuntimeError` naming the first that fails."""
+    procs = [(cmd, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    text=True)) for cmd in cmds]
+    failed = None
+    for cmd, proc in procs:
+        try:
+            _, err = proc.communicate(timeout=600)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+        if proc.returncode != 0 and failed is None:
+            last = (err.strip().splitlines() or ["(no message)"])[-1]
+            failed = f"{' '.join(cmd)} failed: {last}"
+    if failed:
+        raise RuntimeError(failed)
 
 
 def _jaxlib_version() -> str:
