@@ -192,7 +192,8 @@ def clean_holdout(case: dict, start) -> float:
     the error the baseline would have if nothing were missing."""
     import fitting
     from fitting._diagnose import _record, _search_copy, default_base_models, SEARCH_SAMPLES
-    from fitting._select import _replaced, time_block_folds
+    from fitting._refits import _replaced
+    from fitting._select import time_block_folds
 
     if not case["hidden"]:
         return float("nan")

@@ -3,7 +3,7 @@ blocked cross-validation support, with one rule (the decision is `fitting._selec
 thresholds `fitting.DiagnosisRules`; docs/diagnosis.md explains it).
 
 Several runs (a list of `fitting.Dataset`) are one `fitting._candidates.Data`, the runs
-concatenated; every fit fits them all at once (`fitting._select.Fitter.fit`), and the
+concatenated; every fit fits them all at once (`fitting._refits.Fitter.fit`), and the
 folds are the runs (`fitting._select.run_folds`, leave one run out).
 
 What is searched (`effect_names`): every effect of `jaxfric.effects` with a linear
@@ -40,26 +40,17 @@ import jaxfric
 from jaxfric import effects as fx
 from jaxfric.motion import consistent_velocity
 
-from ._candidates import _code, Candidate
+from ._candidates import _code, Candidate, Data
 from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
 from ._diagnosis import Diagnosis, Step
 from ._params import leaf_names, to_fit_representation
 from ._per_run import per_run_values, run_model
 from ._plausibility import plausibility
+from ._refits import _replaced, Fitter, Option
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
-from ._select import (
-    _blocks,
-    _replaced,
-    Data,
-    Fitter,
-    held_out_sse,
-    Option,
-    run_folds,
-    select,
-    time_block_folds,
-)
+from ._select import _blocks, held_out_sse, run_folds, select, time_block_folds
 from ._start import gms_like, initial_model
 
 

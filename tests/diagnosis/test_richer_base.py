@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxfric
-from fitting import _select as S
+from fitting import _refits as R, _select as S
 from fitting._start import gms_like
 from jaxfric import effects as fx, paper
 
@@ -36,19 +36,19 @@ def test_gms_like_takes_the_fitted_curves_and_only_from_a_presliding_shape():
 
 def test_a_base_option_keeps_the_effects_and_replaces_the_plain_model():
     m = _two_state() + (fx.Offset(offset=0.5),)
-    new = S._replaced(lambda plain: gms_like(plain, 5), m)
+    new = R._replaced(lambda plain: gms_like(plain, 5), m)
     assert isinstance(new.without_effects(), jaxfric.GMS)
     assert [e.name for e in new.effects] == ["offset"]
     assert float(new.effects[0].offset) == 0.5
     fixed = jaxfric.Tustin(stribeck=_two_state().stribeck, sigma2=1.0)  # a plain model
-    assert isinstance(S._replaced(fixed, m).without_effects(), jaxfric.Tustin)
+    assert isinstance(R._replaced(fixed, m).without_effects(), jaxfric.Tustin)
 
 
 def test_a_base_options_fold_fits_start_from_the_current_models_fold_fits():
     """Each fold's start is made from the current model's fit on that fold's training
     samples (what `make` sees), not from the option's start on every sample."""
     folds = S.time_block_folds(np.arange(100.0), 4, 2)
-    current = S.Option(("base",), None, frozenset())
+    current = R.Option(("base",), None, frozenset())
     current.fold_models = [_two_state(fs=20.0 + k) + (fx.Offset(offset=0.0),)
                            for k in range(len(folds))]
     seen = []
@@ -57,9 +57,9 @@ def test_a_base_options_fold_fits_start_from_the_current_models_fold_fits():
         seen.append(float(plain.stribeck.Fs))
         return gms_like(plain, 5)
 
-    option = S.Option(("GMS",), "the start on every sample", frozenset(), base=True,
+    option = R.Option(("GMS",), "the start on every sample", frozenset(), base=True,
                       make=make)
-    fitter = S.Fitter(None)
+    fitter = R.Fitter(None)
     starts = []
 
     def fold_fit(model, on, train):

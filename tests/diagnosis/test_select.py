@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxfric
-from fitting import _select as S, diagnose
+from fitting import _candidates as C, _refits as R, _select as S, diagnose
 from fitting._per_run import with_runs
 from fitting._rules import DiagnosisRules
 from jaxfric import effects as fx
@@ -39,14 +39,14 @@ def test_judge_block_statistic():
     n = 2000
     F = rng.standard_normal(n)
     folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
-    cur = S.Option(("base",), None, frozenset())
+    cur = R.Option(("base",), None, frozenset())
     cur.fold_preds = [np.zeros(n)] * 4
-    better = S.Option(("e",), None, frozenset())
+    better = R.Option(("e",), None, frozenset())
     better.fold_preds = [0.5 * F] * 4  # removes 75 % of the SSE in every block
     S.judge(better, cur, folds, F)
     assert better.gain == pytest.approx(0.75)
     assert better.z > 10
-    same = S.Option(("noise",), None, frozenset())
+    same = R.Option(("noise",), None, frozenset())
     same.fold_preds = [0.05 * rng.standard_normal(n)] * 4  # fits nothing
     S.judge(same, cur, folds, F)
     assert same.gain < 0 and same.z < 2
@@ -59,9 +59,9 @@ def _judged(scale, keep):
     n = 2000
     F = np.random.default_rng(3).standard_normal(n) * scale
     folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
-    cur = S.Option(("base",), None, frozenset())
+    cur = R.Option(("base",), None, frozenset())
     cur.fold_preds = [np.zeros(n)] * 4
-    o = S.Option(("e",), None, frozenset())
+    o = R.Option(("e",), None, frozenset())
     o.fold_preds = [(1.0 - k) * F for k in keep]
     S.judge(o, cur, folds, F)
     return o
@@ -107,13 +107,13 @@ def test_standard_error_of_the_mean_block_statistic():
 
 
 def test_physical_ranges_come_from_field_metadata():
-    assert S.physical(fx.Inertia(mass=2.0)) == ""
-    assert "mass" in S.physical(fx.Inertia(mass=-0.1))
-    assert "c_drag" in S.physical(fx.QuadraticDrag(c_drag=-1.0))
-    assert "lag_gain" in S.physical(fx.FrictionLag(lag_gain=1.5, tau=0.1))
-    assert S.physical(fx.Offset(offset=-3.0)) == ""  # an offset may have either sign
-    assert S.switchable("inertia") and S.switchable("cogging")
-    assert not S.switchable("presliding")  # no linear parameter to switch it off
+    assert C.physical(fx.Inertia(mass=2.0)) == ""
+    assert "mass" in C.physical(fx.Inertia(mass=-0.1))
+    assert "c_drag" in C.physical(fx.QuadraticDrag(c_drag=-1.0))
+    assert "lag_gain" in C.physical(fx.FrictionLag(lag_gain=1.5, tau=0.1))
+    assert C.physical(fx.Offset(offset=-3.0)) == ""  # an offset may have either sign
+    assert C.switchable("inertia") and C.switchable("cogging")
+    assert not C.switchable("presliding")  # no linear parameter to switch it off
 
 
 def test_physical_checks_every_runs_value_of_a_relative_per_run_parameter():
@@ -122,11 +122,11 @@ def test_physical_checks_every_runs_value_of_a_relative_per_run_parameter():
     model = with_runs(jaxfric.paper.two_state() + fx.Drift(drift_level=0.2), 3)
     (e,) = model.effects
     e = eqx.tree_at(lambda e: e.effect.drift_level, e, jnp.array([1.5, 0.2]))
-    assert "drift_level" in S.physical(e)
+    assert "drift_level" in C.physical(e)
     moved = e.rereferenced(1)  # run 2's 1.5 is now the reference, not stored
     assert np.all(np.abs(np.asarray(moved.effect.drift_level)) <= 1.0)
-    assert "drift_level" in S.physical(moved)
-    assert S.physical(eqx.tree_at(lambda e: e.effect.drift_level, e,
+    assert "drift_level" in C.physical(moved)
+    assert C.physical(eqx.tree_at(lambda e: e.effect.drift_level, e,
                                   jnp.array([0.5, 0.2]))) == ""
 
 
@@ -136,9 +136,9 @@ def test_start_effect_finds_the_cogging_period_on_its_grid():
     v = np.gradient(x, t)
     F = 20 * np.tanh(v / 1e-3)
     resid = 0.5 * np.sin(2 * np.pi * x / 1.3e-3) + 0.2 * np.cos(2 * np.pi * x / 1.3e-3)
-    data = S.Data(t, x, v, F)
+    data = C.Data(t, x, v, F)
     base = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=20.0, Vs=1e-3, delta=2.0), sigma2=0.0)
-    e = S.start_effect("cogging", data, base, resid)
+    e = C.start_effect("cogging", data, base, resid)
     assert float(e.period) == pytest.approx(1.3e-3, rel=0.03)
     assert float(np.hypot(e.cog_sin, e.cog_cos)) == pytest.approx(np.hypot(0.5, 0.2), rel=0.1)
 
@@ -149,14 +149,14 @@ def test_start_effect_sees_only_the_training_samples():
     t = np.linspace(0, 20, 4000)
     x = 4e-3 * np.sin(2 * np.pi * t / 10)
     v = np.gradient(x, t)
-    data = S.Data(t, x, v, 20 * np.tanh(v / 1e-3))
+    data = C.Data(t, x, v, 20 * np.tanh(v / 1e-3))
     train = (t < 10).astype(float)
     resid = np.where(train > 0, 0.5 * np.sin(2 * np.pi * x / 1.3e-3),
                      2.0 * np.sin(2 * np.pi * x / 0.5e-3))
     base = jaxfric.Tustin(jaxfric.Stribeck(Fs=20.0, Fc=20.0, Vs=1e-3, delta=2.0), sigma2=0.0)
-    e = S.start_effect("cogging", data, base, resid, weights=train)
+    e = C.start_effect("cogging", data, base, resid, weights=train)
     assert float(e.period) == pytest.approx(1.3e-3, rel=0.03)
-    assert float(S.start_effect("cogging", data, base, resid).period) == pytest.approx(
+    assert float(C.start_effect("cogging", data, base, resid).period) == pytest.approx(
         0.5e-3, rel=0.03)
 
 
@@ -241,8 +241,8 @@ def test_the_reference_is_the_current_fold_fit_continued_with_an_options_budget(
 
     start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
     folds = S.time_block_folds(t, 8, 2)
-    fitter = S.Fitter(S.Data(t, x, v, F, a), max_steps=max_steps)
-    cur = S.Option(("base",), to_fit_representation(start), frozenset())
+    fitter = R.Fitter(C.Data(t, x, v, F, a), max_steps=max_steps)
+    cur = R.Option(("base",), to_fit_representation(start), frozenset())
     fitter.cross_validate(cur, folds)
     assert cur.fold_converged == [max_steps > 3] * 2
     fitter.reference(cur, folds)

@@ -1,4 +1,4 @@
-"""Which fits the diagnosis's rule takes as final (`fitting._select._converged`): a fit
+"""Which fits the diagnosis's rule takes as final (`fitting._refits._converged`): a fit
 whose steps gain nothing at a kink of the cost (stalled, or the solver's step test first)
 ended by a rule of its own, its values final, though `fit` reports it NOT converged; a fit
 cut at its step limit, stuck at its start, a failed solve, or one failing `fit`'s own
@@ -10,7 +10,7 @@ import numpy as np
 import optimistix as optx
 import pytest
 
-from fitting._select import _converged
+from fitting._refits import _converged
 
 
 STALL = ("NOT converged: the steps stalled: the last 8 gained under 0.01 noise variances, "

@@ -11,7 +11,7 @@ import pytest
 
 import fitting
 import jaxfric
-from fitting import _select as S
+from fitting import _refits as R, _select as S
 from fitting._candidates import _code
 from fitting._diagnose import _records
 from jaxfric import effects as fx
@@ -74,7 +74,7 @@ def test_fit_of_runs_has_an_offset_per_run_and_predicts_a_left_out_run_at_their_
         F = np.asarray(jaxfric.simulate(model, t, x, v)) + off
         runs.append(fitting.Dataset(t=t, x=x, F=F, v=v))
     data, _ = _records(runs, "central", None)
-    fitter = S.Fitter(data, max_steps=100)
+    fitter = R.Fitter(data, max_steps=100)
     start = fitting.to_fit_representation(model + fx.Offset())
     fitted, pred = fitter.fit(start, frozenset({0}))
     got = np.asarray(fitted.effects[0].effect.offset)

@@ -165,16 +165,16 @@ def _three_runs(seconds=20.0):
 
 
 def test_diagnosis_fitter_frees_the_levels_of_runs_2_to_d_when_drift_is_on():
-    """The diagnosis's fits (`fitting._select.Fitter`): the drift slot off holds every
+    """The diagnosis's fits (`fitting._refits.Fitter`): the drift slot off holds every
     drift parameter; on, it fits the rate and the levels of runs 2 and 3 (counted as two
     free coordinates); the screening start (`start_effect`) leaves the level at 0."""
-    from fitting import _select as S
+    from fitting import _refits as R
     from fitting._candidates import start_effect
     from fitting._diagnose import _records
 
     model, runs = _three_runs(seconds=10.0)
     data, _ = _records(runs, "central", None)
-    fitter = S.Fitter(data, max_steps=100)
+    fitter = R.Fitter(data, max_steps=100)
     start = fitting.to_fit_representation(model + effects.Drift())
     assert fitter.n_free(start, frozenset({0})) - fitter.n_free(start, frozenset()) == 2 + 2
     off, _ = fitter.fit(start, frozenset())

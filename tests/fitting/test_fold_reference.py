@@ -14,7 +14,7 @@ import pytest
 
 import fitting
 import jaxfric
-from fitting import _select as S
+from fitting import _refits as R, _select as S
 from fitting._per_run import per_run_values, rereferenced, run_model, shifted, with_runs
 from jaxfric import effects
 from jaxfric._compile import jit
@@ -48,7 +48,7 @@ def fold_one_out():
     from fitting._diagnose import _records
 
     data, _ = _records(_three_runs(), "central", None)
-    fitter = S.Fitter(data, fixed=("Vs", "delta"), max_steps=100)
+    fitter = R.Fitter(data, fixed=("Vs", "delta"), max_steps=100)
     start = fitting.to_fit_representation(BASE + effects.Drift(drift_rate=RATE))
     full, _ = fitter.fit(start, frozenset({0}))
     full_res = fitter.last

@@ -1,6 +1,6 @@
 """The kind of stop of a fit (`FitResult.stop`, one of `fitting._result.STOPS`), decided
 where the fit stops and carried through `fit`, `fit_datasets`, `fit_batch` and the result's
-JSON; the diagnosis reads it (`fitting._select._converged`) instead of the words of
+JSON; the diagnosis reads it (`fitting._refits._converged`) instead of the words of
 ``stopped``. (Kinks, stuck fits and failed checks: test_termination.py,
 test_fit_statuses.py, test_honest_fits.py.)"""
 
@@ -12,8 +12,8 @@ import pytest
 
 import fitting
 import jaxfric
+from fitting._refits import _converged
 from fitting._result import final_stop, STOPS
-from fitting._select import _converged
 from fitting.cli._io import result_json
 from jaxfric import paper
 from jaxfric.units import LINEAR

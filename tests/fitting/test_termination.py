@@ -9,7 +9,7 @@ import pytest
 import fitting
 import jaxfric
 from fitting import _chunked
-from fitting._select import _converged
+from fitting._refits import _converged
 from jaxfric import paper, trajectories
 
 
@@ -130,7 +130,7 @@ os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
 import equinox as eqx, jax, numpy as np
 import fitting, jaxfric
 from fitting import _chunked
-from fitting._select import _converged
+from fitting._refits import _converged
 from jaxfric import paper, trajectories
 t = np.arange(0.0, 10.0, 1e-3)
 x = 1e-3 * (1 - np.cos(2 * np.pi * t / 2.5)) + 20e-6 * np.sin(2 * np.pi * 7 * t)

@@ -54,6 +54,14 @@ def test_library_files_are_small_and_say_what_they_are():
     assert not undocumented, f"modules without a docstring: {undocumented}"
 
 
+def test_the_diagnosis_decision_reads_in_one_sitting():
+    # The rule that decides what the diagnosis adds is one module of under 400 lines; how
+    # its options are fitted (fitting/_refits.py) and the record handling
+    # (fitting/_diagnose.py) live elsewhere.
+    n = len((ROOT / "fitting" / "_select.py").read_text().splitlines())
+    assert n < 400, f"fitting/_select.py has {n} lines"
+
+
 def test_examples_live_outside_the_packages():
     # A worked example is a script with a __main__ block; such scripts live in examples/.
     scripts = [str(p.relative_to(ROOT)) for p in _sources(*PACKAGES)
