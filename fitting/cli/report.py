@@ -105,7 +105,8 @@ def write_report(out_dir, m, d, *, title: str, intro: str = "", shown=None,
         "<h2>Candidates of the first round (each refitted with the baseline)</h2>",
         "<p>gain = share of the baseline's held-out sum of squares the candidate removes "
         "in the blocked cross-validation (- where not cross-validated: not among the best "
-        "training fits); z = mean gain per block over its standard error; added = the "
+        "training fits, or it cannot qualify: not physical or not converged); z = mean "
+        "gain per block over its standard error; added = the "
         "candidate that qualified (z and a physical fit, docs/diagnosis.md) with the "
         "largest gain.</p>",
         _table(["candidate", "gain", "z", "added", "evidence"], cands),
