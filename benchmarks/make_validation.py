@@ -130,6 +130,20 @@ def with_bench_table(page: str, d: dict | None) -> str:
     return f"{head}{start}\n{body}\n{end}{rest.split(end, 1)[1]}"
 
 
+def _bench_command(c: dict) -> str:
+    """The command that runs corner `c` of the diagnosis bench (``--only`` subsets, if
+    any, are in the JSON's note)."""
+    o = c.get("options") or {}
+    args = [f"--motions {c.get('motion', 'diagnosis')}", f"--truths {','.join(c['truths'])}",
+            f"--rates {c['dt_s']:g}", f"--noises {c['noise_N']:g}"]
+    args += [f"--{k} {o[k]:g}" for k in ("jitter", "duration") if k in o]
+    if c.get("start", "two-state") != "two-state":
+        args.append(f"--start {c['start']}")
+    if c.get("runs_diagnosed", 1) > 1:
+        args.append(f"--runs {c['runs_diagnosed']}")
+    return "python benchmarks/diagnosis_bench.py " + " ".join(args) + " --out ROWS.json"
+
+
 def section_diagnosis(d: dict) -> list[str]:
     corners = d["corners"]
     targets = d["targets"]
@@ -184,11 +198,7 @@ def section_diagnosis(d: dict) -> list[str]:
         "Per hidden effect, over all corners:",
         table(["hidden effect", "named first", "absorbed", "named first instead"],
               per_effect),
-        command("python benchmarks/diagnosis_bench.py --jobs 2 --out ROWS.json\n"
-                "python benchmarks/diagnosis_bench.py --rates 0.001 --truths two_state_power "
-                "--jobs 2 --out ROWS_1ms.json\n"
-                "python benchmarks/diagnosis_bench.py --quick --start gms --summary "
-                "benchmarks/diagnosis_bench.json --out ROWS_gms.json")
+        command("\n".join(dict.fromkeys(_bench_command(c) for c in corners)))
         + f"\n\nThe runs took {hours:.1f} h of wall time in all.",
         f"Machine: {', '.join(cpus) or 'CPU not recorded'}, "
         f"{'/'.join(map(str, cores)) or '?'} cores; runs dated "
