@@ -113,8 +113,8 @@ def bench_by_truth(d: dict) -> str:
                    else "-"]
                   for c in d["corners"] for truth, b in c["by_truth"].items())
     return table(["motion", "truth", "dt [ms]", "noise [N]", "start", "single named first",
-                  "pair both found", "effects added on clean files",
-                  "half the excess removed", "excess removed (median)",
+                  "pair both found", "effects on clean files",
+                  "half the excess removed", "median excess removed",
                   "base model changed"], rows)
 
 
