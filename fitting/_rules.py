@@ -39,8 +39,8 @@ class DiagnosisRules:
     - `tried`: per round, this many candidates are cross-validated: those with the lowest
       training error after their full refit, among those whose refit removes more than its
       expected optimism ``2 q s^2`` (q added coordinates, ``s^2`` the current model's
-      residual variance: what fitting noise removes, not a threshold) and that can qualify
-      (physical, converged); when none qualifies, the pairs of those are.
+      residual variance: what fitting noise removes, not a threshold); when none
+      qualifies, the pairs of those are.
     - `max_added`: at most this many effects (or base-model changes) are added.
     """
 

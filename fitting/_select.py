@@ -21,8 +21,7 @@ most of the superset is held).
    model's effects at their fitted values (it starts where it ended, the effect just
    added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
-   q added coordinates remove when they fit only noise) is not cross-validated, nor one
-   that cannot qualify (not physical, or its fit not converged: `_admissible`); of the
+   q added coordinates remove when they fit only noise) is not cross-validated; of the
    others, the `tried` with the lowest training error are: refitted with each fold held
    out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
    `time_block_folds` makes the default), each from the current model's own fit on that
@@ -38,7 +37,8 @@ most of the superset is held).
    one with the largest held-out gain is added (``z`` decides whether an option
    qualifies, the held-out error which is added: forward selection by cross-validated
    error; an effect that predicts more of the held-out error is not pushed out by one
-   that predicts less, more evenly). Fold fits
+   that predicts less, more evenly). The physical range and the convergence are checked
+   first: an option that fails either is not cross-validated (it cannot qualify). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -187,7 +187,6 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
     earlier = {}  # base-model option name -> its plain model fitted in the round before
-    same = set()  # base-model options whose start was another's
     while len(rounds) < rules.max_added:
         resid = data.F - current.pred
         signals = _signals(data, current.fitted.without_effects())
@@ -199,16 +198,15 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             options.append(Option((n,), model, current.on | {i}))
         if not switched:
-            options += [Option((bname,), _replaced(new, current.fitted), current.on,
-                               base=True, make=make)
-                        for bname, make, new in _base_starts(base_options(), earlier, same,
-                                                             _plain(current.fitted))]
+            for bname, make in base_options():
+                options.append(Option((bname,), _replaced(earlier.get(bname, make),
+                                                          current.fitted),
+                                      current.on, base=True, make=make))
         for o in options:
             _refit(fitter, o, current, log)
         options.sort(key=lambda o: o.sse)
         _optimism(fitter, current, options)
-        best = _admissible([o for o in options if o.sse < current.sse - o.optimism],
-                           log)[:rules.tried]
+        best = [o for o in options if o.sse < current.sse - o.optimism][:rules.tried]
         chosen = _cross_validate(fitter, current, best, folds, rules, log)
         if chosen is None and len(rounds) + 2 <= rules.max_added:
             singles = [o for o in best if not o.base]
@@ -219,9 +217,9 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             for o, single in pairs:  # what its other effect adds to its better single
                 _optimism(fitter, single, [o])
             options += [o for o, _ in pairs]
-            chosen = _cross_validate(fitter, current, _admissible(
-                [o for o, _ in pairs if o.sse < o.against - o.optimism], log), folds, rules,
-                log)
+            chosen = _cross_validate(fitter, current, [o for o, _ in pairs
+                                                       if o.sse < o.against - o.optimism],
+                                     folds, rules, log)
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
@@ -230,23 +228,6 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         switched |= chosen.base
         current = chosen
     return rounds
-
-
-def _base_starts(base_options, earlier: dict, same: set, plain) -> list[tuple]:
-    """``(name, make, start)`` of each base-model option this round: its plain start made
-    from the fitted plain model `plain` (or its own fit of the round before, `earlier`).
-    An option whose start is another's (a GMS from the fit falls back to the one read off
-    the data) would be the same fit: it is left out, in this round and the later ones
-    (its name added to `same`)."""
-    out = []
-    for name, make in base_options:
-        begin = earlier.get(name, make)
-        start = begin if isinstance(begin, eqx.Module) else begin(plain)
-        if name in same or any(start is s for _, _, s in out):
-            same.add(name)
-            continue
-        out.append((name, make, start))
-    return out
 
 
 def _plain(model):
@@ -291,29 +272,21 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
     return Option(a.names + b.names, model, a.on | b.on)
 
 
-def _admissible(options: list[Option], log) -> list[Option]:
-    """The `options` that can qualify: an option whose fit on every sample is not physical
-    or did not converge cannot, whatever its held-out error (both are known before any
-    fold is fitted). The others are marked (`Option.skipped` says why) and are not
-    cross-validated, so they take none of the `tried` places."""
-    out = []
-    for o in options:
-        o.skipped = "; ".join(w for w in (o.physical and f"not physical: {o.physical}",
-                                          o.unconverged and f"not converged: {o.unconverged}")
-                              if w)
-        if o.skipped:
-            log(f"  {o.name}: not cross-validated, it cannot qualify ({o.skipped})")
-        else:
-            out.append(o)
-    return out
-
-
 def _cross_validate(fitter, current, options, folds, rules, log):
-    """Cross-validate `current` and `options` (`_admissible` ones); the qualifying one of
-    largest held-out gain."""
+    """Cross-validate `current` and `options`; the qualifying one of largest held-out
+    gain. An option that cannot qualify whatever its held-out error (its fit on every
+    sample not physical or not converged: both known before the folds are fitted) is not
+    cross-validated (`Option.skipped` says why): the decision is the same, without its
+    fold fits."""
     fitter.cross_validate(current, folds)
     fitter.reference(current, folds)
     for o in options:
+        if o.physical or o.unconverged:
+            o.skipped = "; ".join(
+                w for w in (o.physical and f"not physical: {o.physical}",
+                            o.unconverged and f"not converged: {o.unconverged}") if w)
+            log(f"  {o.name}: not cross-validated, it cannot qualify ({o.skipped})")
+            continue
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
         if names and not o.base:

@@ -85,7 +85,7 @@ class _Fitter:
         option.fold_preds = [0.5 * self.data.F] * len(folds)
 
 
-def test_an_option_that_cannot_qualify_is_not_cross_validated_nor_takes_a_place():
+def test_an_option_that_cannot_qualify_is_not_cross_validated():
     n = 400
     F = np.random.default_rng(2).standard_normal(n)
     folds = S.time_block_folds(np.arange(n, dtype=float), 8, 2)
@@ -98,35 +98,10 @@ def test_an_option_that_cannot_qualify_is_not_cross_validated_nor_takes_a_place(
     good = S.Option(("quadratic_drag",), model, frozenset({2}))
     fitter = _Fitter(F)
     lines = []
-    # The ones that cannot qualify take none of the `tried` places (here 1): the third
-    # best training fit is the one cross-validated.
-    tried = S._admissible([bent, cut, good], lines.append)[:1]
-    chosen = S._cross_validate(fitter, current, tried, folds,
+    chosen = S._cross_validate(fitter, current, [bent, cut, good], folds,
                                DiagnosisRules(blocks=8, folds=2), lines.append)
     assert fitter.validated == ["quadratic_drag"]
     assert chosen is good
     assert "not physical" in bent.skipped and "not converged" in cut.skipped
     assert np.isnan(bent.z) and np.isnan(cut.z) and not good.skipped
     assert any("cannot qualify" in line for line in lines)
-
-
-def test_a_base_option_with_another_options_start_is_left_out():
-    # A GMS started at the fit falls back to the one read off the data (a fit whose
-    # presliding curve gives no GMS): the two would be one fit, cross-validated twice.
-    read = jaxfric.paper.gms5()
-    options = [("GMS with 20 elements", lambda plain: read), ("GMS 20 from the data",
-                                                              lambda plain: read)]
-    same = set()
-    starts = S._base_starts(options, {}, same, jaxfric.paper.two_state())
-    assert [name for name, _, _ in starts] == ["GMS with 20 elements"]
-    assert same == {"GMS 20 from the data"}
-    # left out in later rounds too, when the kept one starts from its own earlier fit
-    fitted = jaxfric.paper.gms10()
-    later = S._base_starts(options, {"GMS with 20 elements": fitted}, same,
-                           jaxfric.paper.two_state())
-    assert [name for name, _, _ in later] == ["GMS with 20 elements"]
-    assert later[0][2] is fitted
-    # two options with starts of their own are both kept
-    other = [("a", lambda plain: jaxfric.paper.gms5()), ("b", lambda plain: read)]
-    assert len(S._base_starts(other, {}, set(), jaxfric.paper.two_state())) == 2
-
