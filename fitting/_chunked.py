@@ -399,8 +399,7 @@ def _hold_accepted(free_fit, reason, kind, result, out, held, n_obs: int) -> boo
         return False
     free_cost, free_held = free_fit[7], free_fit[6]
     k = len(held) - len(free_held)
-    layout = free_fit[5].layout
-    p = int(np.sum(np.repeat(np.asarray(layout.leaf_free), layout.sizes)))
+    p = free_fit[5].layout.n_free()
     s2 = 2.0 * free_cost / max(n_obs - p, 1)
     cost = 0.5 * float(np.sum(np.asarray(out.resid) ** 2))
     return cost - free_cost <= 0.5 * s2 * float(chi2.ppf(0.95, k))

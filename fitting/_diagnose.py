@@ -98,9 +98,8 @@ def default_base_models(model, longest: Data) -> list[tuple[str, object]]:
     `GMS_ELEMENTS` elements started at the fit (`_richer`) and, when that start exists (a
     two-state model), one read off the data (`_from_data`); the rule judges both."""
     data = _from_data(longest)  # one start read off the data, made once, for both
-    plain = model.without_effects() if getattr(model, "effects", ()) else model
     out = [(f"GMS with {GMS_ELEMENTS} elements", _richer(data))]
-    if gms_like(plain, GMS_ELEMENTS) is not None:
+    if gms_like(model.without_effects(), GMS_ELEMENTS) is not None:
         out.append((f"GMS {GMS_ELEMENTS} from the data", data))
     return out
 

@@ -139,6 +139,10 @@ class Layout(eqx.Module):
         parts = [jnp.full((s,), self.leaf_free[i]) for i, s in enumerate(self.sizes)]
         return jnp.concatenate(parts).astype(jnp.asarray(0.0).dtype)
 
+    def n_free(self) -> int:
+        """The number of free coordinates (concrete flags, on the host: no JAX op)."""
+        return int(np.sum(np.repeat(np.asarray(self.leaf_free), self.sizes)))
+
     def at_bound(self, y: Array) -> Array:
         """One flag per leaf: a free leaf with a coordinate pinned at a bound of its
         transform (`fitting._transforms.PINNED`)."""

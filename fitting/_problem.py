@@ -46,7 +46,7 @@ class _Problem(eqx.Module):
         of all coordinates; else unchanged. For a model most of whose parameters are held
         (a diagnosis's superset of effects), where each held column costs as much as a free
         one to compute and is then multiplied by 0."""
-        free = int(np.sum(np.repeat(np.asarray(self.layout.leaf_free), self.layout.sizes)))
+        free = self.layout.n_free()
         total = int(sum(self.layout.sizes))
         width = 8 * -(-free // 8)
         return dataclasses.replace(self, width=width) if 3 * width <= 2 * total else self

@@ -208,6 +208,6 @@ def _replaced(make, model):
     model, or a function of the fitted plain model that returns one (a richer model that
     starts where the fit is, `fitting._start.gms_like`)."""
     effects = tuple(getattr(model, "effects", ()))
-    plain = model.without_effects() if effects else model
-    new = _params.to_fit_representation(make if isinstance(make, eqx.Module) else make(plain))
+    new = _params.to_fit_representation(
+        make if isinstance(make, eqx.Module) else make(model.without_effects()))
     return new + effects if effects else new

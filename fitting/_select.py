@@ -8,8 +8,7 @@ model (``plain + every candidate``, each switched off by its linear parameters a
 ``param(..., linear=True)``), so every refit fits the same compiled program; an option
 switches its effect on by freeing its parameters (the free set is data, not structure).
 Its Jacobian is computed over the free coordinates only (``fit_datasets(..., narrow=True)``:
-slots of 8, one program per width; the same fit, at about half the cost per step where
-most of the superset is held).
+slots of 8, one program per width; the same fit, without the held effects' columns).
 
 **Each round** (forward selection):
 
@@ -51,11 +50,11 @@ import itertools
 from collections.abc import Callable, Sequence
 
 import equinox as eqx
-import jax
 import numpy as np
 
 from . import _params
 from ._candidates import _off, _signals, physical, start_effect, switchable
+from ._fit import _finite
 from ._refits import _replaced, Fitter, Option
 from ._rules import DiagnosisRules
 
@@ -223,21 +222,11 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
-        earlier = {o.name: _plain(o.fitted) for o in options
+        earlier = {o.name: o.fitted.without_effects() for o in options
                    if o.base and o.fitted is not None and _finite(o.fitted)}
         switched |= chosen.base
         current = chosen
     return rounds
-
-
-def _plain(model):
-    """`model` without its effects."""
-    return model.without_effects() if getattr(model, "effects", ()) else model
-
-
-def _finite(model) -> bool:
-    return all(bool(np.all(np.isfinite(np.asarray(leaf)))) for leaf in
-               jax.tree.leaves(eqx.filter(model, eqx.is_inexact_array)))
 
 
 def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
