@@ -50,7 +50,7 @@ from ._plausibility import plausibility
 from ._refits import _replaced, Fitter, Option
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
-from ._select import _blocks, held_out_sse, run_folds, select, time_block_folds
+from ._select import _base_starts, _blocks, held_out_sse, run_folds, select, time_block_folds
 from ._start import gms_like, initial_model
 
 
@@ -63,7 +63,7 @@ GMS_ELEMENTS = 20
 
 
 def _richer(fallback):
-    """The default base-model option, as a function of the fitted plain model: a GMS with
+    """A start of the GMS option, as a function of the fitted plain model: a GMS with
     `GMS_ELEMENTS` elements started where a fitted two-state model is
     (`fitting._start.gms_like`: its presliding curve, Stribeck curve and lag), so its
     refit starts where the fit is (and in the fit's optimum); for another family,
@@ -77,11 +77,11 @@ def _richer(fallback):
 
 
 def _from_data(longest: Data):
-    """The second base-model option for a two-state model: a GMS with `GMS_ELEMENTS`
-    elements read off the longest run (`initial_model`, made once), whatever the fit is.
-    A two-state fit in a poor optimum (a frozen lag, a step-like Stribeck curve) hands
-    that optimum to `gms_like`; on point-to-point moves of a 60-element GMS truth the GMS
-    refit from it ends at 1.43 N RMS, from the data at 0.26 N (noise 0.1 N)."""
+    """A start of the GMS option: a GMS with `GMS_ELEMENTS` elements read off the longest
+    run (`initial_model`, made once), whatever the fit is. A two-state fit in a poor
+    optimum (a frozen lag, a step-like Stribeck curve) hands that optimum to `gms_like`;
+    on point-to-point moves of a 60-element GMS truth the GMS refit from it ends at
+    1.43 N RMS, from the data at 0.26 N (noise 0.1 N)."""
     made = []
 
     def make(_plain):
@@ -93,15 +93,16 @@ def _from_data(longest: Data):
     return make
 
 
-def default_base_models(model, longest: Data) -> list[tuple[str, object]]:
-    """The base-model options a diagnosis of `model` tries by default: a GMS with
-    `GMS_ELEMENTS` elements started at the fit (`_richer`) and, when that start exists (a
-    two-state model), one read off the data (`_from_data`); the rule judges both."""
+def default_base_models(model, longest: Data) -> list[tuple[str, tuple]]:
+    """The base-model option a diagnosis of `model` tries by default: a GMS with
+    `GMS_ELEMENTS` elements, ``(name, starts)``; its starts ``(label, maker)``: read off
+    the data (`_from_data`) and, when that start exists (a two-state model), at the fit
+    (`_richer`). The rule keeps the better training fit of the two (`fitting._select`)."""
     data = _from_data(longest)  # one start read off the data, made once, for both
-    out = [(f"GMS with {GMS_ELEMENTS} elements", _richer(data))]
+    starts = (("read off the data", data),)
     if gms_like(model.without_effects(), GMS_ELEMENTS) is not None:
-        out.append((f"GMS {GMS_ELEMENTS} from the data", data))
-    return out
+        starts += (("started at the fit", _richer(data)),)
+    return [(f"GMS with {GMS_ELEMENTS} elements", starts)]
 
 
 def _contained(model, fixed) -> set[str]:
@@ -362,8 +363,10 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     judged = np.isfinite(o.z)
     pair = len(o.names) > 1
     worth = o.sse < (o.against if np.isfinite(o.against) else current.sse) - o.optimism
-    why = (f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
-           + (f"; held out {100 * o.gain:.3g} % of the SSE, z = {o.z:.2f}" if judged else
+    why = ((f"{o.start}; " if o.start else "")
+           + f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
+           + (f"; held out {100 * o.gain:.3g} % of the SSE (shown: {100 * o.lower:.3g} %), "
+              f"z = {o.z:.2f}" if judged else
               "; not cross-validated (it cannot qualify)" if o.skipped else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (its second effect removes no more than fitting noise "
@@ -425,12 +428,12 @@ def diagnose(
       every effect not already in the model, nor one of its free parameters: ``viscous``
       only when ``sigma2`` is held with `fixed`; the effects of an angle only when
       `rotary`, `x` then an angle in rad; those of the load only with `load`).
-    - `base_models`: ``[(name, plain model)]`` tried as replacements of the base model by
-      the same rule (a plain model may also be a function of the fitted plain model that
-      returns one; default `default_base_models`: a GMS with 20 elements started where
-      the fit is, and one read off the data;
-      ``()`` for none); when one is added, ``Diagnosis.finding`` says that the base model
-      is the limit here.
+    - `base_models`: ``[(name, start)]`` tried as replacements of the base model by the
+      same rule; a start is a plain model or a function of the fitted plain model that
+      returns one, or several starts ``((label, start), ...)``, each fitted, the better
+      training fit kept (default `default_base_models`: a GMS with 20 elements, started
+      where the fit is and read off the data; ``()`` for none); when one is added,
+      ``Diagnosis.finding`` says that the base model is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
     - `max_steps`: per fit. `load`: the transmitted load (N, or N m), for the load effects.
     - `derivatives`, `velocity_window`: how the velocity is estimated from the position
@@ -460,8 +463,9 @@ def diagnose(
     if unknown:
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {leaf_names(model)}")
-    if base_models is None:
-        base_models = default_base_models(model, full.longest())
+    base_models = (default_base_models(model, full.longest()) if base_models is None else
+                   [(name, starts if isinstance(starts, tuple) else (("as given", starts),))
+                    for name, starts in base_models])
     n = full.t.size
     base_full, search = None, ""
     copy, pick = full, np.arange(n)
@@ -471,7 +475,8 @@ def diagnose(
         base_full = _final_fit(Fitter(full, fixed, max_steps), model,
                                range(len(getattr(model, "effects", ()))), full, full, log, "")
         fit = base_full.fit_model
-        tried = [(name, _replaced(make, fit)) for name, make in base_models]
+        tried = [(f"{name} ({label})", _replaced(start, fit)) for name, starts in base_models
+                 for label, _, start in _base_starts(starts, None, fit.without_effects())]
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
         search = (f"effects searched on {copy.t.size} of the {n} samples (about "
                   f"{search_samples} evenly in time, as many where the base model's states "
@@ -555,7 +560,10 @@ def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, 
         warnings["final"] = _plausible(final, full)
     trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
                "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
-               "z": None if not np.isfinite(o.z) else o.z, "physical": not o.physical,
+               "z": None if not np.isfinite(o.z) else o.z,
+               "held_out_share_shown": None if not np.isfinite(o.lower) else o.lower,
+               "block_folds": o.block_folds, "block_ref": o.block_ref,
+               "block_gains": o.block_gains, "physical": not o.physical,
                "converged": not o.unconverged, "fold_fits_at_limit": o.cut or None,
                "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
     if finding:

@@ -36,6 +36,7 @@ class Option:
     sse: float = np.inf  # training SSE on all samples
     gain: float = np.nan  # held-out SSE removed, share of the current model's
     z: float = np.nan  # mean block gain over its standard error
+    lower: float = np.nan  # the held-out gain shown at z standard errors (`lower_gain`)
     physical: str = ""  # "" when physical, else why not
     optimism: float = 0.0  # 2 q s^2: the training SSE any q added coordinates remove
     against: float = np.nan  # the training SSE of the model `optimism` is counted from
@@ -46,6 +47,7 @@ class Option:
     unconverged: str = ""  # "" when its fit on every sample converged, else why not
     cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
     make: object = None  # a base-model option: how its plain model is made (`_replaced`)
+    start: str = ""  # a base-model option: which of its starts gave the fit kept
     #: Why an option among those tried was not cross-validated ("" when it was, or was not
     #: among them): it cannot qualify (not physical, or its fit not converged).
     skipped: str = ""

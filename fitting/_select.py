@@ -15,29 +15,33 @@ slots of 8, one program per width; the same fit, without the held effects' colum
 1. each option is fitted jointly with the current model to convergence on every sample:
    its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
    best regresses the current residual, its linear ones at that regression's values, the
-   rest of the model at the current fit; a base-model option from its own start
-   (`_replaced`), in later rounds from its own fit of the round before with the current
-   model's effects at their fitted values (it starts where it ended, the effect just
-   added included);
+   rest of the model at the current fit; a base-model option from each of its own
+   starts (`_replaced`; a GMS at the fit and read off the data), the better training fit
+   kept (one model, several starts: one option, one place among the `tried`), in later
+   rounds from its own fit of the round before with the current model's effects at
+   their fitted values (it starts where it ended, the effect just added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
-   q added coordinates remove when they fit only noise) is not cross-validated; of the
+   q added coordinates remove when they fit only noise) is not cross-validated, nor one
+   that cannot qualify (not physical, or its fit not converged: `_admissible`); of the
    others, the `tried` with the lowest training error are: refitted with each fold held
    out in turn (`folds`, a plain list of ``(train_weights, test_weights)``;
    `time_block_folds` makes the default), each from the current model's own fit on that
    fold's training samples, its grid start picked again on those samples
-   (`fitting._refits.Fitter.cross_validate_nested`); a base-model option, which does not contain the
-   current model, is refitted from its own start (`Fitter.cross_validate`);
+   (`fitting._refits.Fitter.cross_validate_nested`); a base-model option, which does not
+   contain the current model, is refitted from the start it was kept from, made from the
+   current model's fit on that fold's training samples (`Fitter.cross_validate`);
 3. an option qualifies when ``log(SSE_current / SSE_option)`` of the held-out samples,
    block by block (each contiguous run of a fold's test samples is a block), has a mean
    above `z` standard errors (`block_z`; the blocks of one fold counted as one piece of
-   evidence where they move together, `standard_error`), every fitted parameter is in
+   evidence where they move together, `standard_error`) and above
+   ``log(1 / (1 - min_gain))`` by that much (`lower_gain`: significant and relevant,
+   `DiagnosisRules.min_gain`), every fitted parameter is in
    its physical range (``param(..., physical=(lo, hi))``) and its fit on every sample
    ended by a rule of its own (`fitting._refits._converged`); of those that qualify, the
    one with the largest held-out gain is added (``z`` decides whether an option
    qualifies, the held-out error which is added: forward selection by cross-validated
    error; an effect that predicts more of the held-out error is not pushed out by one
-   that predicts less, more evenly). The physical range and the convergence are checked
-   first: an option that fails either is not cross-validated (it cannot qualify). Fold fits
+   that predicts less, more evenly). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -101,9 +105,10 @@ def _blocks(folds) -> list[tuple[int, np.ndarray]]:
     return out
 
 
-def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
+def judge(option: Option, current: Option, folds, F: np.ndarray, z: float = 2.0) -> None:
     """Set `option`'s held-out gain over `current` (share of the current model's held-out
-    SSE) and ``z``: the mean block gain over its standard error. The current model's
+    SSE), ``z``: the mean block gain over its standard error, and ``lower``: the gain
+    that mean less `z` standard errors stands for (`lower_gain`). The current model's
     held-out predictions are its `fold_refs` when set (`Fitter.reference`)."""
     ref = current.fold_refs or current.fold_preds
     option.block_folds, option.block_ref, option.block_gains = [], [], []
@@ -117,16 +122,30 @@ def judge(option: Option, current: Option, folds, F: np.ndarray) -> None:
     total = float(np.sum(option.block_ref))
     option.gain = float(d.sum() / total) if total > 0 else 0.0
     option.z = block_z(option.block_ref, option.block_gains, option.block_folds)
+    option.lower = lower_gain(option.block_ref, option.block_gains, option.block_folds, z)
+
+
+def _log_ratios(ref, gains) -> np.ndarray:
+    ref = np.maximum(np.asarray(ref, float), np.finfo(float).tiny)
+    new = np.maximum(ref - np.asarray(gains, float), np.finfo(float).tiny)
+    return np.log(ref / new)
 
 
 def block_z(ref, gains, folds) -> float:
     """The rule's statistic: the mean over blocks of ``log(SSE_current / SSE_option)``
     (held out, block by block), over its standard error (`standard_error`)."""
-    ref = np.maximum(np.asarray(ref, float), np.finfo(float).tiny)
-    new = np.maximum(ref - np.asarray(gains, float), np.finfo(float).tiny)
-    r = np.log(ref / new)
+    r = _log_ratios(ref, gains)
     se = standard_error(r, np.asarray(folds))
     return float(r.mean() / se) if se > 0 else (np.inf if r.mean() > 0 else 0.0)
+
+
+def lower_gain(ref, gains, folds, z: float) -> float:
+    """The share of the held-out SSE an option is shown to remove at `z` standard errors:
+    ``1 - exp(-(mean - z se))`` of the block log ratios (`block_z`); the rule's
+    relevance, compared with `DiagnosisRules.min_gain`. Minus infinity for one block."""
+    r = _log_ratios(ref, gains)
+    se = standard_error(r, np.asarray(folds))
+    return float(-np.expm1(-(r.mean() - z * se))) if np.isfinite(se) else -np.inf
 
 
 def standard_error(gains: np.ndarray, folds: np.ndarray) -> float:
@@ -170,7 +189,8 @@ class Round:
 def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: DiagnosisRules,
            base_options: Callable[[], list] = lambda: [], log=None) -> list[Round]:
     """Forward selection from model `start` (plain) over effect names `candidates` and the
-    base models `base_options()` gives (``[(name, plain model or maker)]``, `_replaced`);
+    base models `base_options()` gives (``[(name, ((label, plain model or maker), ...))]``:
+    each fitted from every start, the best training fit kept, `_replaced`);
     see the module docstring. Returns the rounds; the last round's ``current`` is the
     final model."""
     log = log or (lambda *_: None)
@@ -185,7 +205,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                      result=fitter.last,
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
-    earlier = {}  # base-model option name -> its plain model fitted in the round before
+    earlier = {}  # base-model option name -> (start, make, its plain fit of the round before)
     while len(rounds) < rules.max_added:
         resid = data.F - current.pred
         signals = _signals(data, current.fitted.without_effects())
@@ -196,16 +216,22 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             options.append(Option((n,), model, current.on | {i}))
-        if not switched:
-            for bname, make in base_options():
-                options.append(Option((bname,), _replaced(earlier.get(bname, make),
-                                                          current.fitted),
-                                      current.on, base=True, make=make))
         for o in options:
             _refit(fitter, o, current, log)
+        if not switched:
+            for bname, starts in base_options():
+                group = [Option((bname,), _replaced(begin, current.fitted), current.on,
+                                base=True, make=make, start=label)
+                         for label, make, begin in _base_starts(
+                             starts, earlier.get(bname), current.fitted.without_effects())]
+                for o in group:
+                    _refit(fitter, o, current, log)
+                options.append(min(group, key=lambda o: o.sse if np.isfinite(o.sse)
+                                   else np.inf))
         options.sort(key=lambda o: o.sse)
         _optimism(fitter, current, options)
-        best = [o for o in options if o.sse < current.sse - o.optimism][:rules.tried]
+        best = _admissible([o for o in options if o.sse < current.sse - o.optimism],
+                           log)[:rules.tried]
         chosen = _cross_validate(fitter, current, best, folds, rules, log)
         if chosen is None and len(rounds) + 2 <= rules.max_added:
             singles = [o for o in best if not o.base]
@@ -216,17 +242,33 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             for o, single in pairs:  # what its other effect adds to its better single
                 _optimism(fitter, single, [o])
             options += [o for o, _ in pairs]
-            chosen = _cross_validate(fitter, current, [o for o, _ in pairs
-                                                       if o.sse < o.against - o.optimism],
-                                     folds, rules, log)
+            chosen = _cross_validate(fitter, current, _admissible(
+                [o for o, _ in pairs if o.sse < o.against - o.optimism], log), folds, rules,
+                log)
         rounds.append(Round(options, chosen, current))
         if chosen is None:
             break
-        earlier = {o.name: o.fitted.without_effects() for o in options
+        earlier = {o.name: (o.start, o.make, o.fitted.without_effects()) for o in options
                    if o.base and o.fitted is not None and _finite(o.fitted)}
         switched |= chosen.base
         current = chosen
     return rounds
+
+
+def _base_starts(starts, earlier, plain) -> list[tuple]:
+    """``(label, make, start)`` of each start of one base-model option this round: each
+    of `starts` (``(label, plain model or maker)``) made from the fitted plain model
+    `plain`, a start that is another's (a GMS from the fit falls back to the one read off
+    the data) once; in a later round the option's own fit of the round before
+    (`earlier`: ``(label, make, plain fit)``), one start."""
+    if earlier is not None:
+        return [earlier]
+    out = []
+    for label, make in starts:
+        start = make if isinstance(make, eqx.Module) else make(plain)
+        if not any(start is s for _, _, s in out):
+            out.append((label, make, start))
+    return out
 
 
 def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
@@ -261,33 +303,43 @@ def _pair(a: Option, b: Option, current: Option) -> Option:
     return Option(a.names + b.names, model, a.on | b.on)
 
 
+def _admissible(options: list[Option], log) -> list[Option]:
+    """The `options` that can qualify: an option whose fit on every sample is not physical
+    or did not converge cannot, whatever its held-out error (both are known before any
+    fold is fitted). The others are marked (`Option.skipped` says why) and are not
+    cross-validated, so they take none of the `tried` places."""
+    out = []
+    for o in options:
+        o.skipped = "; ".join(w for w in (o.physical and f"not physical: {o.physical}",
+                                          o.unconverged and f"not converged: {o.unconverged}")
+                              if w)
+        if o.skipped:
+            log(f"  {o.name}: not cross-validated, it cannot qualify ({o.skipped})")
+        else:
+            out.append(o)
+    return out
+
+
 def _cross_validate(fitter, current, options, folds, rules, log):
-    """Cross-validate `current` and `options`; the qualifying one of largest held-out
-    gain. An option that cannot qualify whatever its held-out error (its fit on every
-    sample not physical or not converged: both known before the folds are fitted) is not
-    cross-validated (`Option.skipped` says why): the decision is the same, without its
-    fold fits."""
+    """Cross-validate `current` and `options` (`_admissible` ones); the qualifying one of
+    largest held-out gain."""
     fitter.cross_validate(current, folds)
     fitter.reference(current, folds)
     for o in options:
-        if o.physical or o.unconverged:
-            o.skipped = "; ".join(
-                w for w in (o.physical and f"not physical: {o.physical}",
-                            o.unconverged and f"not converged: {o.unconverged}") if w)
-            log(f"  {o.name}: not cross-validated, it cannot qualify ({o.skipped})")
-            continue
         log(f"  cross-validating {o.name} ({len(folds)} folds) ...")
         names = {i: type(o.model.effects[i]).name for i in o.on - current.on}
         if names and not o.base:
             fitter.cross_validate_nested(o, current, folds, names)
         else:
             fitter.cross_validate(o, folds, current)
-        judge(o, current, folds, fitter.data.F)
-        log(f"    held-out SSE {-100 * o.gain:+.3g} %, z = {o.z:.2f}"
+        judge(o, current, folds, fitter.data.F, rules.z)
+        log(f"    held-out SSE {-100 * o.gain:+.3g} % (shown: {-100 * o.lower:+.3g} %), "
+            f"z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else "")
             + (f" (not converged: {o.unconverged})" if o.unconverged else "")
             + (f" (judged where stopped: {o.cut})" if o.cut else ""))
     # An option whose fit on every sample did not converge has no final values to check
     # or add; its fold fits are evidence at equal effort (`Fitter.reference`).
-    good = [o for o in options if o.z >= rules.z and not o.physical and not o.unconverged]
+    good = [o for o in options if o.z >= rules.z and o.lower >= rules.min_gain
+            and not o.physical and not o.unconverged]
     return max(good, key=lambda o: o.gain) if good else None

@@ -89,9 +89,9 @@ def test_a_curve_that_is_not_concave_has_no_gms_start():
 
 
 def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
-    """A two-state fit in a poor optimum would hand it to `gms_like`; the GMS read off the
-    data is a second option, judged by the same rule (`default_base_models`). A GMS or
-    Tustin base model has no such start to lose, and gets one option."""
+    """A two-state fit in a poor optimum would hand it to `gms_like`; the GMS option has a
+    second start read off the data (`default_base_models`), the better training fit kept.
+    A GMS or Tustin base model has no start at the fit to lose, and gets the one."""
     from fitting._candidates import Data
     from fitting._diagnose import default_base_models, GMS_ELEMENTS
     from tests.fitting.test_fit_properties import _motion
@@ -100,15 +100,15 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     m = _two_state()
     F = np.asarray(jaxfric.simulate(m, t, x))
     data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
-    options = default_base_models(m + (fx.Offset(offset=0.5),), data)
-    assert [n for n, _ in options] == [f"GMS with {GMS_ELEMENTS} elements",
-                                       f"GMS {GMS_ELEMENTS} from the data"]
+    ((name, starts),) = default_base_models(m + (fx.Offset(offset=0.5),), data)
+    assert name == f"GMS with {GMS_ELEMENTS} elements"
+    assert [label for label, _ in starts] == ["read off the data", "started at the fit"]
     fitted = eqx.tree_at(lambda m: m.C, m, np.float64(1e-3))  # a frozen lag
-    started, read = (make(fitted) for _, make in options)
+    read, started = (make(fitted) for _, make in starts)
     assert float(started.C) == pytest.approx(1e-3)  # the fit's optimum, handed on
     assert isinstance(read, jaxfric.GMS) and read.nu.shape == (GMS_ELEMENTS,)
     assert float(read.C) != pytest.approx(1e-3)  # read off the data, whatever the fit
-    assert read is options[1][1](m)  # made once
+    assert read is starts[0][1](m)  # made once
     gms = gms_like(m, 5)
-    assert [n for n, _ in default_base_models(gms, data)] == [
-        f"GMS with {GMS_ELEMENTS} elements"]
+    ((_, starts),) = default_base_models(gms, data)
+    assert [label for label, _ in starts] == ["read off the data"]

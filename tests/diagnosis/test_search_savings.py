@@ -85,7 +85,7 @@ class _Fitter:
         option.fold_preds = [0.5 * self.data.F] * len(folds)
 
 
-def test_an_option_that_cannot_qualify_is_not_cross_validated():
+def test_an_option_that_cannot_qualify_is_not_cross_validated_nor_takes_a_place():
     n = 400
     F = np.random.default_rng(2).standard_normal(n)
     folds = S.time_block_folds(np.arange(n, dtype=float), 8, 2)
@@ -98,10 +98,30 @@ def test_an_option_that_cannot_qualify_is_not_cross_validated():
     good = S.Option(("quadratic_drag",), model, frozenset({2}))
     fitter = _Fitter(F)
     lines = []
-    chosen = S._cross_validate(fitter, current, [bent, cut, good], folds,
+    # The ones that cannot qualify take none of the `tried` places (here 1): the third
+    # best training fit is the one cross-validated.
+    tried = S._admissible([bent, cut, good], lines.append)[:1]
+    chosen = S._cross_validate(fitter, current, tried, folds,
                                DiagnosisRules(blocks=8, folds=2), lines.append)
     assert fitter.validated == ["quadratic_drag"]
     assert chosen is good
     assert "not physical" in bent.skipped and "not converged" in cut.skipped
     assert np.isnan(bent.z) and np.isnan(cut.z) and not good.skipped
     assert any("cannot qualify" in line for line in lines)
+
+
+def test_a_base_options_starts_are_fitted_once_each():
+    # A GMS started at the fit falls back to the one read off the data (a fit whose
+    # presliding curve gives no GMS): the two starts are one fit, made once.
+    read = jaxfric.paper.gms5()
+    starts = (("read off the data", lambda plain: read),
+              ("started at the fit", lambda plain: read))
+    made = S._base_starts(starts, None, jaxfric.paper.two_state())
+    assert [(label, start) for label, _, start in made] == [("read off the data", read)]
+    # two starts of their own are both fitted
+    other = (("a", lambda plain: jaxfric.paper.gms5()), ("b", lambda plain: read))
+    assert len(S._base_starts(other, None, jaxfric.paper.two_state())) == 2
+    # in a later round, one start: its own fit of the round before
+    fitted = jaxfric.paper.gms10()
+    assert S._base_starts(starts, ("b", other[1][1], fitted),
+                          jaxfric.paper.two_state()) == [("b", other[1][1], fitted)]

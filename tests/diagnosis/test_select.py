@@ -52,6 +52,41 @@ def test_judge_block_statistic():
     assert same.gain < 0 and same.z < 2
 
 
+def test_significant_is_not_relevant():
+    """An option that removes 0.8 % of every block's SSE, evenly: significant (z far above
+    2) but not shown to remove `min_gain` (1 %), so it does not qualify; one removing 5 %
+    as evenly does."""
+    n = 2000
+    F = np.random.default_rng(4).standard_normal(n)
+    folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
+    cur = R.Option(("base",), None, frozenset())
+    cur.fold_preds = [np.zeros(n)] * 4
+    small, large = (R.Option((name,), None, frozenset()) for name in ("small", "large"))
+    small.fold_preds = [(1 - np.sqrt(1 - 0.008)) * F] * 4
+    large.fold_preds = [(1 - np.sqrt(1 - 0.05)) * F] * 4
+    for o in (small, large):
+        S.judge(o, cur, folds, F, z=2.0)
+    assert small.gain == pytest.approx(0.008) and small.z > 10
+    assert small.lower == pytest.approx(0.008)  # no spread: shown as measured
+    assert small.lower < DiagnosisRules().min_gain <= large.lower
+
+    class _Fitter:  # the folds are already fitted: nothing to refit
+        data = C.Data(t=np.arange(n, dtype=float), x=np.zeros(n), v=np.zeros(n), F=F)
+
+        def cross_validate(self, option, folds, current=None):
+            pass
+
+        reference = cross_validate
+
+    fitter = _Fitter()
+    rules = DiagnosisRules(blocks=20, folds=4)
+    assert S._cross_validate(fitter, cur, [small], folds, rules, lambda *_: None) is None
+    assert S._cross_validate(fitter, cur, [small, large], folds, rules,
+                             lambda *_: None) is large
+    assert S._cross_validate(fitter, cur, [small], folds,
+                             DiagnosisRules(min_gain=0.0), lambda *_: None) is small
+
+
 def _judged(scale, keep):
     """An option judged against a current model that predicts 0 on ``F = scale * noise``
     (blocks of 100 samples, 20 blocks, 4 folds): in fold ``k`` it predicts
@@ -165,6 +200,8 @@ def test_rules_are_checked():
         DiagnosisRules(folds=1)
     with pytest.raises(ValueError):
         DiagnosisRules(z=0.0)
+    with pytest.raises(ValueError, match="min_gain"):
+        DiagnosisRules(min_gain=1.0)
     with pytest.raises(dataclasses_frozen()):
         DiagnosisRules().z = 3.0
 
@@ -217,6 +254,24 @@ def test_diagnose_finds_a_mass_and_adds_nothing_to_its_clean_twin():
     clean = diagnose(start, t, x, F, v, a=a, effects=("inertia", "offset", "quadratic_drag"),
                         base_models=())
     assert clean.final.added == []
+
+
+def test_a_base_model_option_of_several_starts_is_one_option():
+    """A base-model option is fitted from each of its starts and the better training fit
+    kept: one option (one trial, one place among the `tried`), its evidence naming the
+    start; a start given alone (a plain model) is one start."""
+    start, t, x, F, v, a = _tustin_record(mass=0.0, duration=6.0)
+    far = eqx.tree_at(lambda m: m.stribeck.Vs, start, np.float64(1.0))  # a poor start
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    d = diagnose(start, t, x, F, v, a=a, effects=("offset",), rules=rules,
+                 base_models=[("Tustin again", (("far", far), ("near", start))),
+                              ("Tustin far", far)])
+    base = [tr for tr in d.trials if tr["effects"][0].startswith("Tustin")]
+    assert [tr["effects"] for tr in base] == [["Tustin again"], ["Tustin far"]]
+    again, alone = (next(c for c in d.candidates if c.name == n)
+                    for n in ("Tustin again", "Tustin far"))
+    assert again.evidence.startswith("near;") and alone.evidence.startswith("as given;")
+    assert base[0]["sse_train"] < base[1]["sse_train"]
 
 
 def test_a_fit_cut_at_its_step_limit_is_no_evidence():
