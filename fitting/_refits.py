@@ -147,9 +147,10 @@ class Fitter:
         self.last = res
         return res.fit_model, d.simulate(res.fit_model, fitted)
 
-    def fold_fit(self, model, on: frozenset, train):
-        """`fit` on a fold's training samples, continued once from where it stopped when
-        it did not converge: the step budget of every fold fit."""
+    def fold_fit(self, model, on: frozenset, train=None):
+        """`fit` on a fold's training samples (every sample without `train`), continued
+        once from where it stopped when it did not converge: the step budget of every
+        option's fit."""
         fitted, pred = self.fit(model, on, train)
         if not _converged(self.last):
             fitted, pred = self.fit(fitted, on, train)

@@ -12,7 +12,8 @@ slots of 8, one program per width; the same fit, without the held effects' colum
 
 **Each round** (forward selection):
 
-1. each option is fitted jointly with the current model to convergence on every sample:
+1. each option is fitted jointly with the current model to convergence on every sample
+   (`max_steps`, continued once where it stopped there, as every fold fit):
    its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
    best regresses the current residual, its linear ones at that regression's values, the
    rest of the model at the current fit; a base-model option from each of its own
@@ -272,9 +273,11 @@ def _base_starts(starts, earlier, plain) -> list[tuple]:
 
 
 def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
-    """Fit option `o` on every sample; set its fit, training SSE and physical check."""
+    """Fit option `o` on every sample with the budget of a fold fit (`Fitter.fold_fit`:
+    continued once where it stopped at its step limit); set its fit, training SSE and
+    physical check."""
     log(f"  refitting with {o.name} ...")
-    o.fitted, o.pred = fitter.fit(o.model, o.on)
+    o.fitted, o.pred = fitter.fold_fit(o.model, o.on)
     o.result = fitter.last
     o._note("fit on every sample", o.result)
     o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
