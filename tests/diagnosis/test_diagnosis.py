@@ -118,12 +118,12 @@ def test_two_hidden_effects_both_found():
 #: Strict: when one starts to pass, the test fails until it is taken off this list.
 _CUT = "measured (DiagnosisRules() with min_gain): "
 KNOWN_FAILURES: dict[tuple[str, int, float], str] = {
-    ("stribeck", 0, 1.0): _CUT + "the Stribeck hump's refit removes 98.5 % of the training "
-    "SSE but stops at max_steps = 150: not converged, not cross-validated, nothing added",
-    ("stribeck", 1, 2.0): _CUT + "the Stribeck hump's refit removes 93.4 % of the training "
-    "SSE but stops at max_steps = 150: not converged, not cross-validated, nothing added",
+    ("stribeck", 1, 2.0): _CUT + "the Stribeck hump's refit removes 99.6 % of the training "
+    "SSE but stops at max_steps = 150 twice (continued once), alpha and beta_rel "
+    "undetermined and not held: not converged, not cross-validated, nothing added",
     ("presliding", 0, 1.0): _CUT + "presliding is no effect candidate; the GMS-20 base "
-    "removes 99.9 % of the training SSE but stops at max_steps = 150: nothing added",
+    "removes 100 % of the training SSE but stops at max_steps = 150 twice, C undetermined "
+    "and not held: nothing added",
     ("presliding", 1, 2.0): _CUT + "presliding is no effect candidate; the GMS-20 base is "
     "added (held out 99.9 %, z 7.25), its fit ends at 0.343 N RMS against the clean "
     "file's 0.056 N (its Fc, 0.03 N, lies beyond the data)",

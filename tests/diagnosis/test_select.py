@@ -274,6 +274,32 @@ def test_a_base_model_option_of_several_starts_is_one_option():
     assert base[0]["sse_train"] < base[1]["sse_train"]
 
 
+def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
+    """An option's fit on every sample gets the budget of a fold fit: where it stops at
+    its step limit it is continued once from there, and judged by the continuation."""
+    import optimistix as optx
+    from types import SimpleNamespace
+
+    F = np.zeros(10)
+    fitter = R.Fitter(SimpleNamespace(F=F))
+    calls = []
+
+    def fit(model, on, weights=None):
+        calls.append(model)
+        cut = len(calls) == 1
+        fitter.last = SimpleNamespace(
+            result=optx.RESULTS.nonlinear_max_steps_reached if cut else
+            optx.RESULTS.successful, stop="max_steps" if cut else "converged",
+            stopped="max_steps = 150 reached" if cut else "", rmse=0.0)
+        return f"fit {len(calls)}", np.zeros(10)
+
+    fitter.fit = fit
+    o = R.Option(("offset",), "start", frozenset())
+    S._refit(fitter, o, R.Option(("base",), None, frozenset()), lambda *_: None)
+    assert calls == ["start", "fit 1"] and o.fitted == "fit 2"
+    assert o.unconverged == ""
+
+
 def test_a_fit_cut_at_its_step_limit_is_no_evidence():
     """The quick case with every fit cut at three steps: the mass's fit on every sample
     has no final values to add, so the mass is not added, and its evidence says why."""
