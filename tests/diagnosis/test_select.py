@@ -277,8 +277,9 @@ def test_a_base_model_option_of_several_starts_is_one_option():
 def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
     """An option's fit on every sample gets the budget of a fold fit: where it stops at
     its step limit it is continued once from there, and judged by the continuation."""
-    import optimistix as optx
     from types import SimpleNamespace
+
+    import optimistix as optx
 
     F = np.zeros(10)
     fitter = R.Fitter(SimpleNamespace(F=F))
