@@ -365,8 +365,8 @@ def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     worth = o.sse < (o.against if np.isfinite(o.against) else current.sse) - o.optimism
     why = ((f"{o.start}; " if o.start else "")
            + f"refit removes {100 * (1 - o.sse / current.sse):.3g} % of the training SSE"
-           + (f"; held out {100 * o.gain:.3g} % of the SSE (shown: {100 * o.lower:.3g} %), "
-              f"z = {o.z:.2f}" if judged else
+           + (f"; held out {100 * o.gain:.3g} % of the SSE (of a typical block at least "
+              f"{100 * o.lower:.3g} %), z = {o.z:.2f}" if judged else
               "; not cross-validated (it cannot qualify)" if o.skipped else
               "; not cross-validated (not among the best training fits)" if worth else
               "; not cross-validated (its second effect removes no more than fitting noise "
@@ -466,6 +466,8 @@ def diagnose(
     base_models = (default_base_models(model, full.longest()) if base_models is None else
                    [(name, starts if isinstance(starts, tuple) else (("as given", starts),))
                     for name, starts in base_models])
+    if any(not starts for _, starts in base_models):
+        raise ValueError("base_models: every base model needs a start")
     n = full.t.size
     base_full, search = None, ""
     copy, pick = full, np.arange(n)

@@ -141,9 +141,10 @@ def block_z(ref, gains, folds) -> float:
 
 
 def lower_gain(ref, gains, folds, z: float) -> float:
-    """The share of the held-out SSE an option is shown to remove at `z` standard errors:
-    ``1 - exp(-(mean - z se))`` of the block log ratios (`block_z`); the rule's
-    relevance, compared with `DiagnosisRules.min_gain`. Minus infinity for one block."""
+    """The share of a typical block's held-out SSE (geometric mean over blocks) an option
+    is shown to remove at `z` standard errors: ``1 - exp(-(mean - z se))`` of the block
+    log ratios (`block_z`); the rule's relevance, compared with `DiagnosisRules.min_gain`.
+    Minus infinity for one block."""
     r = _log_ratios(ref, gains)
     se = standard_error(r, np.asarray(folds))
     return float(-np.expm1(-(r.mean() - z * se))) if np.isfinite(se) else -np.inf
@@ -336,8 +337,8 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         else:
             fitter.cross_validate(o, folds, current)
         judge(o, current, folds, fitter.data.F, rules.z)
-        log(f"    held-out SSE {-100 * o.gain:+.3g} % (shown: {-100 * o.lower:+.3g} %), "
-            f"z = {o.z:.2f}"
+        log(f"    held-out SSE {-100 * o.gain:+.3g} % (of a typical block at most "
+            f"{-100 * o.lower:+.3g} %), z = {o.z:.2f}"
             + (f" (not physical: {o.physical})" if o.physical else "")
             + (f" (not converged: {o.unconverged})" if o.unconverged else "")
             + (f" (judged where stopped: {o.cut})" if o.cut else ""))

@@ -114,7 +114,7 @@ def test_two_hidden_effects_both_found():
     assert_found(["offset", "inertia"])
 
 
-#: Cases the diagnosis does not pass yet, each with what goes wrong (README, "Limits").
+#: Cases the diagnosis does not pass yet, each with what goes wrong (docs/diagnosis.md).
 #: Strict: when one starts to pass, the test fails until it is taken off this list.
 _CUT = "measured (DiagnosisRules() with min_gain): "
 KNOWN_FAILURES: dict[tuple[str, int, float], str] = {
@@ -129,7 +129,7 @@ KNOWN_FAILURES: dict[tuple[str, int, float], str] = {
     "file's 0.056 N (its Fc, 0.03 N, lies beyond the data)",
 }
 
-#: Pairs of hidden effects the diagnosis does not separate yet (README, "Limits").
+#: Pairs of hidden effects the diagnosis does not separate yet (docs/diagnosis.md).
 KNOWN_PAIR_FAILURES: dict[tuple[str, ...], str] = {}
 
 

@@ -272,6 +272,9 @@ def test_a_base_model_option_of_several_starts_is_one_option():
                     for n in ("Tustin again", "Tustin far"))
     assert again.evidence.startswith("near;") and alone.evidence.startswith("as given;")
     assert base[0]["sse_train"] < base[1]["sse_train"]
+    with pytest.raises(ValueError, match="needs a start"):
+        diagnose(start, t, x, F, v, a=a, effects=("offset",), rules=rules,
+                 base_models=[("nothing", ())])
 
 
 def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
