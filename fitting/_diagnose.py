@@ -505,14 +505,20 @@ def diagnose(
     base_res = (base_full if base_full is not None else
                 _final_fit(fitter, first.fitted, first.on, copy, full, log, "the baseline"))
     baseline = _step(base_res, [], full, cv_rmse(first), masks)
-    steps, added, finding = [], [], ""
+    steps, added, findings = [], [], []
     chosen = [r.added for r in rounds if r.added is not None]
+    held = "runs" if by == "runs" else "blocks"
     for i, o in enumerate(chosen):
         added = [*added, *o.names]
         if o.base:
-            finding = (f"the base model is the limit here: {o.name} predicts the held-out "
-                       f"{'runs' if by == 'runs' else 'blocks'} better ({100 * o.gain:.3g} % "
-                       f"of their SSE, z = {o.z:.2f}) than any effect added to the base model")
+            findings.append(f"the base model is the limit here: {o.name} predicts the "
+                            f"held-out {held} better ({100 * o.gain:.3g} % of their SSE, "
+                            f"z = {o.z:.2f}) than any effect added to the base model")
+        if o.ties:
+            findings.append(f"{o.name} was added, but "
+                            + " and ".join(f"{n} (difference z = {z:.2f})" for n, z in o.ties)
+                            + f" predicts the held-out {held} about as well: the data do not "
+                            "tell them apart")
         last = i == len(chosen) - 1
         res = (_final_fit(fitter, o.fitted, o.on, copy, full, log, " + ".join(added))
                if last else o.result)
@@ -520,7 +526,8 @@ def diagnose(
                            masks if last else _masks(copy)))
     runs = _run_rows(names_of_runs, full, copy, folds, [first, *chosen],
                      [base_res, *([steps[-1].fit] if steps else [])])
-    return _result(rounds, baseline, steps, base_res, full, search, finding, by, runs,
+    return _result(rounds, baseline, steps, base_res, full, search, "; ".join(findings), by,
+                   runs,
                    model_name or type(model).__name__, how,
                    None if given_v else {"method": derivatives, "window_s": velocity_window},
                    log)

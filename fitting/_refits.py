@@ -48,6 +48,8 @@ class Option:
     cut: str = ""  # its fold fits stopped at their step limit (judged where they stopped)
     make: object = None  # a base-model option: how its plain model is made (`_replaced`)
     start: str = ""  # a base-model option: which of its starts gave the fit kept
+    #: Added: the other qualifying options it is not shown better than, ``(name, z)``.
+    ties: list = dataclasses.field(default_factory=list)
     #: Why an option among those tried was not cross-validated ("" when it was, or was not
     #: among them): it cannot qualify (not physical, or its fit not converged).
     skipped: str = ""

@@ -346,4 +346,19 @@ def _cross_validate(fitter, current, options, folds, rules, log):
     # or add; its fold fits are evidence at equal effort (`Fitter.reference`).
     good = [o for o in options if o.z >= rules.z and o.lower >= rules.min_gain
             and not o.physical and not o.unconverged]
-    return max(good, key=lambda o: o.gain) if good else None
+    if not good:
+        return None
+    chosen = max(good, key=lambda o: o.gain)
+    chosen.ties = [(o.name, z) for o in good if o is not chosen
+                   and (z := _between(chosen, o)) < rules.z]
+    return chosen
+
+
+def _between(a: Option, b: Option) -> float:
+    """How much better `a` predicts the held-out blocks than `b` (both judged against the
+    same current model): the mean block ``log(SSE_b / SSE_a)`` over its standard error.
+    Under `z`, the data do not tell the two apart (a look-alike: an offset and a
+    direction-dependent level on a record that slides at equal speeds both ways)."""
+    r = _log_ratios(a.block_ref, a.block_gains) - _log_ratios(b.block_ref, b.block_gains)
+    se = standard_error(r, np.asarray(a.block_folds))
+    return float(r.mean() / se) if se > 0 else (np.inf if r.mean() > 0 else 0.0)

@@ -87,6 +87,37 @@ def test_significant_is_not_relevant():
                              DiagnosisRules(min_gain=0.0), lambda *_: None) is small
 
 
+def test_a_look_alike_that_predicts_as_well_is_named_with_the_one_added():
+    """Two options that both qualify, one removing 50.5 % and the other 50 % of every
+    block's SSE: the larger is added, and the data do not tell the two apart (their
+    difference, with noise in the blocks, under z); against one removing 20 %, no tie."""
+    n = 2000
+    rng = np.random.default_rng(5)
+    F = rng.standard_normal(n)
+    folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
+    cur = R.Option(("base",), None, frozenset())
+    cur.fold_preds = [np.zeros(n)] * 4
+
+    def option(name, share):
+        o = R.Option((name,), None, frozenset())
+        o.fold_preds = [(1 - np.sqrt(1 - share)) * F + 0.05 * rng.standard_normal(n)] * 4
+        return o
+
+    class _Fitter:
+        data = C.Data(t=np.arange(n, dtype=float), x=np.zeros(n), v=np.zeros(n), F=F)
+
+        def cross_validate(self, option, folds, current=None):
+            pass
+
+        reference = cross_validate
+
+    rules = DiagnosisRules(blocks=20, folds=4)
+    a, b, c = option("offset", 0.505), option("asymmetry", 0.5), option("cogging", 0.2)
+    chosen = S._cross_validate(_Fitter(), cur, [b, a, c], folds, rules, lambda *_: None)
+    assert chosen is a
+    assert [name for name, _ in a.ties] == ["asymmetry"] and a.ties[0][1] < rules.z
+
+
 def _judged(scale, keep):
     """An option judged against a current model that predicts 0 on ``F = scale * noise``
     (blocks of 100 samples, 20 blocks, 4 folds): in fold ``k`` it predicts
