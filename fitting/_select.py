@@ -17,8 +17,9 @@ slots of 8, one program per width; the same fit, without the held effects' colum
    its nonlinear parameters start at the grid point (`AbstractEffect.grid`) whose term
    best regresses the current residual, its linear ones at that regression's values, the
    rest of the model at the current fit; a base-model option from each of its own
-   starts (`_replaced`; a GMS at the fit and read off the data), the better training fit
-   kept (one model, several starts: one option, one place among the `tried`), in later
+   starts (`_replaced`; a GMS at the fit and read off the data), `max_steps` each, the
+   better training fit kept and only it continued (`_race`; one model, several starts:
+   one option, one place among the `tried`), in later
    rounds from its own fit of the round before with the current model's effects at
    their fitted values (it starts where it ended, the effect just added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
@@ -226,10 +227,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                                 base=True, make=make, start=label)
                          for label, make, begin in _base_starts(
                              starts, earlier.get(bname), current.fitted.without_effects())]
-                for o in group:
-                    _refit(fitter, o, current, log)
-                options.append(min(group, key=lambda o: o.sse if np.isfinite(o.sse)
-                                   else np.inf))
+                options.append(_race(fitter, group, current, log))
         options.sort(key=lambda o: o.sse)
         _optimism(fitter, current, options)
         best = _admissible([o for o in options if o.sse < current.sse - o.optimism],
@@ -273,17 +271,44 @@ def _base_starts(starts, earlier, plain) -> list[tuple]:
     return out
 
 
-def _refit(fitter: Fitter, o: Option, current: Option, log) -> None:
+def _refit(fitter: Fitter, o: Option, current: Option, log, continued: bool = True) -> None:
     """Fit option `o` on every sample with the budget of a fold fit (`Fitter.fold_fit`:
-    continued once where it stopped at its step limit); set its fit, training SSE and
-    physical check."""
-    log(f"  refitting with {o.name} ...")
-    o.fitted, o.pred = fitter.fold_fit(o.model, o.on)
+    continued once where it stopped at its step limit; not `continued`: one fit, for a
+    start that competes with others, `_race`); set its fit, training SSE and physical
+    check."""
+    log(f"  refitting with {o.name}{f' ({o.start})' if o.start else ''} ...")
+    o.fitted, o.pred = fitter.fit(o.model, o.on)
+    _set(fitter, o, current)
+    if continued and o.unconverged:
+        _continue(fitter, o, current)
+
+
+def _continue(fitter: Fitter, o: Option, current: Option) -> None:
+    """Continue `o`'s fit on every sample from where it stopped."""
+    o.unconverged = ""
+    o.fitted, o.pred = fitter.fit(o.fitted, o.on)
+    _set(fitter, o, current)
+
+
+def _set(fitter: Fitter, o: Option, current: Option) -> None:
     o.result = fitter.last
     o._note("fit on every sample", o.result)
     o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
     o.physical = "" if o.base else "; ".join(
         p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i])))
+
+
+def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
+    """One option fitted from several starts: each start gets `max_steps`, the best
+    training fit is kept and only it is continued where it stopped (successive halving:
+    the budget goes to the start that leads)."""
+    for o in group:
+        _refit(fitter, o, current, log, continued=len(group) == 1)
+    kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
+    if kept.unconverged and len(group) > 1:
+        log(f"  continuing {kept.name} ({kept.start}) ...")
+        _continue(fitter, kept, current)
+    return kept
 
 
 def _optimism(fitter: Fitter, current: Option, options: list[Option]) -> None:

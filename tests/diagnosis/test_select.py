@@ -335,6 +335,34 @@ def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
     assert o.unconverged == ""
 
 
+def test_the_starts_of_one_option_race_and_only_the_leader_is_continued():
+    """A base-model option's starts get `max_steps` each; the better training fit is kept
+    and only it is continued where it stopped."""
+    import optimistix as optx
+    from types import SimpleNamespace
+
+    F = np.zeros(10)
+    fitter = R.Fitter(SimpleNamespace(F=F))
+    calls = []
+    level = {"near": 1.0, "far": 2.0, "near fitted": 0.5}
+
+    def fit(model, on, weights=None):
+        calls.append(model)
+        done = model == "near fitted"
+        fitter.last = SimpleNamespace(
+            result=optx.RESULTS.successful if done else
+            optx.RESULTS.nonlinear_max_steps_reached, stop="converged" if done else
+            "max_steps", stopped="" if done else "max_steps = 150 reached", rmse=0.0)
+        return f"{model} fitted", np.full(10, level[model])
+
+    fitter.fit = fit
+    group = [R.Option(("GMS",), m, frozenset(), base=True, start=m) for m in ("far", "near")]
+    kept = S._race(fitter, group, R.Option(("base",), None, frozenset()), lambda *_: None)
+    assert calls == ["far", "near", "near fitted"]
+    assert kept is group[1] and kept.fitted == "near fitted fitted" and not kept.unconverged
+    assert group[0].unconverged  # the one behind is left where it stopped
+
+
 def test_a_fit_cut_at_its_step_limit_is_no_evidence():
     """The quick case with every fit cut at three steps: the mass's fit on every sample
     has no final values to add, so the mass is not added, and its evidence says why."""
