@@ -191,8 +191,13 @@ def clean_holdout(case: dict, start) -> float:
     cross-validates its baseline (its search copy of a long record, blocks and folds):
     the error the baseline would have if nothing were missing."""
     import fitting
-    from fitting._diagnose import _record, _search_copy, default_base_models, SEARCH_SAMPLES
-    from fitting._refits import _replaced
+    from fitting._diagnose import (
+        _record,
+        _search_copy,
+        base_model_starts,
+        default_base_models,
+        SEARCH_SAMPLES,
+    )
     from fitting._select import time_block_folds
 
     if not case["hidden"]:
@@ -202,8 +207,7 @@ def clean_holdout(case: dict, start) -> float:
     if full.t.size >= 2 * SEARCH_SAMPLES:
         fitted = fitting.fit(start, full.t, full.x, full.F, full.v, a=full.a,
                              max_steps=150).fit_model
-        tried = [(name, _replaced(make, fitted))
-                 for name, make in default_base_models(start, full)]
+        tried = base_model_starts(default_base_models(start, full), fitted)
         copy, _, _ = _search_copy(full, fitted, SEARCH_SAMPLES, lambda *_: None, tried)
     rules = fitting.DiagnosisRules()
     sse = 0.0

@@ -105,6 +105,14 @@ def default_base_models(model, longest: Data) -> list[tuple[str, tuple]]:
     return [(f"GMS with {GMS_ELEMENTS} elements", starts)]
 
 
+def base_model_starts(base_models, fit) -> list[tuple[str, object]]:
+    """``[(name (label), model)]``: every start of the base models `base_models`
+    (`default_base_models`' form) made from `fit`, with its effects; the models the search
+    copy must carry (`_search_copy`)."""
+    return [(f"{name} ({label})", _replaced(start, fit)) for name, starts in base_models
+            for label, _, start in _base_starts(starts, None, fit.without_effects())]
+
+
 def _contained(model, fixed) -> set[str]:
     """Effects the model's own free parameters already are: ``viscous`` (``c_visc * v``)
     when the model fits its own ``sigma2``: their sum is one viscous coefficient, so adding
@@ -477,8 +485,7 @@ def diagnose(
         base_full = _final_fit(Fitter(full, fixed, max_steps), model,
                                range(len(getattr(model, "effects", ()))), full, full, log, "")
         fit = base_full.fit_model
-        tried = [(f"{name} ({label})", _replaced(start, fit)) for name, starts in base_models
-                 for label, _, start in _base_starts(starts, None, fit.without_effects())]
+        tried = base_model_starts(base_models, fit)
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
         search = (f"effects searched on {copy.t.size} of the {n} samples (about "
                   f"{search_samples} evenly in time, as many where the base model's states "

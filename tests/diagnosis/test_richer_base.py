@@ -112,3 +112,22 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     gms = gms_like(m, 5)
     ((_, starts),) = default_base_models(gms, data)
     assert [label for label, _ in starts] == ["read off the data"]
+
+
+def test_the_search_copy_carries_every_start_of_the_base_models():
+    """The search copy of a long record must carry every model the search fits: each
+    start of each base model, made from the fit, with the fit's effects."""
+    from fitting._candidates import Data
+    from fitting._diagnose import base_model_starts, default_base_models, GMS_ELEMENTS
+    from tests.fitting.test_fit_properties import _motion
+
+    t, x = _motion()
+    m = _two_state() + (fx.Offset(offset=0.5),)
+    F = np.asarray(jaxfric.simulate(m, t, x))
+    data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
+    made = base_model_starts(default_base_models(m, data), m)
+    name = f"GMS with {GMS_ELEMENTS} elements"
+    assert [n for n, _ in made] == [f"{name} (read off the data)",
+                                    f"{name} (started at the fit)"]
+    assert all(isinstance(g.without_effects(), jaxfric.GMS) for _, g in made)
+    assert all([e.name for e in g.effects] == ["offset"] for _, g in made)
