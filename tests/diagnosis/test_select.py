@@ -338,8 +338,9 @@ def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
 def test_the_starts_of_one_option_race_and_only_the_leader_is_continued():
     """A base-model option's starts get `max_steps` each; the better training fit is kept
     and only it is continued where it stopped."""
-    import optimistix as optx
     from types import SimpleNamespace
+
+    import optimistix as optx
 
     F = np.zeros(10)
     fitter = R.Fitter(SimpleNamespace(F=F))
