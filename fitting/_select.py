@@ -107,7 +107,8 @@ def _blocks(folds) -> list[tuple[int, np.ndarray]]:
     return out
 
 
-def judge(option: Option, current: Option, folds, F: np.ndarray, z: float = 2.0) -> None:
+def judge(option: Option, current: Option, folds, F: np.ndarray,
+          z: float = DiagnosisRules.z) -> None:
     """Set `option`'s held-out gain over `current` (share of the current model's held-out
     SSE), ``z``: the mean block gain over its standard error, and ``lower``: the gain
     that mean less `z` standard errors stands for (`lower_gain`). The current model's
@@ -277,10 +278,8 @@ def _refit(fitter: Fitter, o: Option, current: Option, log, continued: bool = Tr
     start that competes with others, `_race`); set its fit, training SSE and physical
     check."""
     log(f"  refitting with {o.name}{f' ({o.start})' if o.start else ''} ...")
-    o.fitted, o.pred = fitter.fit(o.model, o.on)
+    o.fitted, o.pred = (fitter.fold_fit if continued else fitter.fit)(o.model, o.on)
     _set(fitter, o, current)
-    if continued and o.unconverged:
-        _continue(fitter, o, current)
 
 
 def _continue(fitter: Fitter, o: Option, current: Option) -> None:
@@ -364,11 +363,9 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         judge(o, current, folds, fitter.data.F, rules.z)
         log(f"    held-out SSE {-100 * o.gain:+.3g} % (of a typical block at most "
             f"{-100 * o.lower:+.3g} %), z = {o.z:.2f}"
-            + (f" (not physical: {o.physical})" if o.physical else "")
-            + (f" (not converged: {o.unconverged})" if o.unconverged else "")
             + (f" (judged where stopped: {o.cut})" if o.cut else ""))
-    # An option whose fit on every sample did not converge has no final values to check
-    # or add; its fold fits are evidence at equal effort (`Fitter.reference`).
+    # physical and converged: `_admissible` kept only those, checked again for a caller
+    # that did not
     good = [o for o in options if o.z >= rules.z and o.lower >= rules.min_gain
             and not o.physical and not o.unconverged]
     if not good:
