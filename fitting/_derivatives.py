@@ -34,7 +34,7 @@ the acceleration is then the central difference of that column, or ``None`` for
 
 import numpy as np
 
-from jaxfric.motion import smooth_derivatives, velocity
+from jaxfric.motion import central_difference, smooth_derivatives, velocity
 
 
 DERIVATIVES = ("central", "savgol", "backward")
@@ -53,7 +53,7 @@ def estimate_velocity(t, x, method: str = "central", window_s: float | None = No
         return velocity(t, x)
     if method == "central":
         if window_s is None:
-            return np.gradient(x, t, edge_order=1) if x.size > 1 else np.zeros_like(x)
+            return central_difference(t, x)
         return velocity(t, x, window_s)
     h = float(np.median(np.diff(t)))
     return smooth_derivatives(t, x, 7 * h if window_s is None else window_s)[0]

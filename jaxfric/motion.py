@@ -242,8 +242,18 @@ def velocity(t, x, window_s: float | None = None) -> np.ndarray:
     t, x = np.asarray(t, dtype=np.float64), np.asarray(x, dtype=np.float64)
     if not window_s:
         return np.r_[0.0, np.diff(x) / np.diff(t)]
+    return central_difference(t, x, max(1, round(window_s / 2 / float(np.median(np.diff(t))))))
+
+
+def central_difference(t, x, h: int = 1) -> np.ndarray:
+    """``(x_{n+h} - x_{n-h}) / (t_{n+h} - t_{n-h})`` of concrete arrays, one-sided at the
+    ends: exactly 0 wherever the position did not change, on any clock (the second-order
+    formula of `numpy.gradient` for uneven steps leaves round-off of about 1e-14 m/s there,
+    whose sign a ``sign(v)`` term would read as a direction of motion)."""
+    t, x = np.asarray(t, dtype=np.float64), np.asarray(x, dtype=np.float64)
     n = t.size
-    h = max(1, round(window_s / 2 / float(np.median(np.diff(t)))))
+    if n < 2:
+        return np.zeros_like(x)
     i = np.arange(n)
     lo, hi = np.clip(i - h, 0, n - 1), np.clip(i + h, 0, n - 1)
     return (x[hi] - x[lo]) / (t[hi] - t[lo])

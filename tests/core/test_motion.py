@@ -60,3 +60,16 @@ def test_smooth_derivatives_refuse_irregular_sampling():
     t = np.cumsum(np.r_[0.0, np.random.default_rng(0).uniform(0.5e-3, 1.5e-3, 999)])
     with pytest.raises(ValueError, match="uniform sampling"):
         motion.smooth_derivatives(t, np.sin(t), 0.02)
+
+
+def test_central_difference_is_exactly_zero_at_rest_on_a_jittered_clock():
+    """The documented ``(x_{n+1} - x_{n-1}) / (t_{n+1} - t_{n-1})``: exactly 0 where the
+    position did not change (`numpy.gradient`'s formula for uneven steps leaves round-off
+    there, whose sign a ``sign(v)`` term reads as a direction)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(200) * 1e-3 + rng.uniform(-1e-4, 1e-4, 200)
+    x = np.where(t < 0.1, 0.0, (t - 0.1) ** 2) + 1.234e-3
+    v = motion.central_difference(t, x)
+    assert np.all(v[1:98] == 0.0)
+    np.testing.assert_allclose(v[150], (x[151] - x[149]) / (t[151] - t[149]), rtol=1e-15)
+    assert v[0] == (x[1] - x[0]) / (t[1] - t[0]) and v[-1] == (x[-1] - x[-2]) / (t[-1] - t[-2])
