@@ -47,9 +47,9 @@ def test_hidden_effects_with_a_direction_are_zero_at_rest(hidden):
     """A dwell is at rest: a hidden effect with ``sign(v)`` adds nothing there (it acted
     with the random sign of the fine grid's round-off velocity, up to the hump's full 2 N,
     on most of a point-to-point record's dwell samples)."""
-    kw = dict(noise=0.0, dt=1e-2, seed=3, motion="point_to_point", duration=30.0,
-              jitter=0.1)
-    t, x, F = synthetic.measurement("stiction", (hidden,), **kw)
+    kw = {"noise": 0.0, "dt": 1e-2, "seed": 3, "motion": "point_to_point",
+          "duration": 30.0, "jitter": 0.1}
+    _, x, F = synthetic.measurement("stiction", (hidden,), **kw)
     _, _, F0 = synthetic.measurement("stiction", (), **kw)
     still = np.r_[False, (x[2:] == x[1:-1]) & (x[1:-1] == x[:-2]), False]
     assert still.sum() > 300  # the dwells

@@ -9,14 +9,12 @@ against 0.25 N on the EMPS record)."""
 
 import pathlib
 
-import equinox as eqx
 import numpy as np
 import pytest
 
 import fitting
 from fitting import _diagnose
 from fitting._candidates import Data
-from fitting._select import _blocks, time_block_folds
 from jaxfric import synthetic
 from jaxfric.motion import make_motion
 
