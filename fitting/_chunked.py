@@ -84,6 +84,7 @@ class _ChunkOut(eqx.Module):
     left: Array  # `decrease_left` at the end: the Gauss-Newton decrease left / s^2
     undetermined: Array  # how many free directions are undetermined there
     gained: Array  # the cost's decrease over the last `STALL_STEPS` steps / s^2 (or inf)
+    moved: Array  # their move's squared length in standard errors (`Stopping.moved`)
 
 
 def _scaled_residuals(z, args):
@@ -114,7 +115,9 @@ def _chunk_steps(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
     return _ChunkOut(y=y_c + inv_d * sol.value, result=sol.result,
                      num_steps=sol.stats["num_steps"], resid=resid, jac=jac, force=force,
                      overflow=overflow, step_size=jnp.asarray(size, y_c.dtype), left=left,
-                     undetermined=count, gained=stopping.gained(sol.state, resid))
+                     undetermined=count, gained=stopping.gained(sol.state, resid),
+                     moved=stopping.moved(sol.state, sol.value,
+                                          inner.f_info.jac.as_matrix(), resid))
 
 
 @jit
@@ -191,6 +194,16 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
         if tol.decrease > 0 and gained <= tol.decrease:
             why = (f"the steps stalled: the last {STALL_STEPS} gained under "
                    f"{tol.decrease:g} noise variances, {left:.3g} predicted")
+            if left <= bound:
+                return why, "converged"
+            return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): "
+                    "the linear model does not hold here (a kink of the cost) and the fit "
+                    "may be stuck", "kink")
+        moved = float(out.moved)
+        if tol.decrease > 0 and moved <= 2.0 * tol.decrease:
+            why = (f"the fit settled: the last {STALL_STEPS - 1} steps moved no linear "
+                   f"combination of the parameters by more than {np.sqrt(moved):.2g} of its "
+                   f"standard error, {left:.3g} noise variances predicted")
             if left <= bound:
                 return why, "converged"
             return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): "
