@@ -117,8 +117,7 @@ def _chunk_steps(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
                      num_steps=sol.stats["num_steps"], resid=resid, jac=jac, force=force,
                      overflow=overflow, step_size=jnp.asarray(size, y_c.dtype), left=left,
                      undetermined=count, gained=stopping.gained(sol.state, resid),
-                     moved=stopping.moved(sol.state, sol.value,
-                                          inner.f_info.jac.as_matrix(), resid))
+                     moved=stopping.moved(sol.state, inner.f_info.jac.as_matrix(), resid))
 
 
 @jit

@@ -173,19 +173,20 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             # STALL_STEPS - 1 steps ago; the newest is now.
             achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
             stalled = (self.decrease > 0) & (achieved <= self.decrease * s2)
-            still = (self.decrease > 0) & (self.moved(state, y, f_info.jac.as_matrix(), resid)
+            still = (self.decrease > 0) & (self.moved(state, f_info.jac.as_matrix(), resid)
                                            <= 2.0 * self.decrease)
             settled = (count >= 1) & ((ratio <= self.decrease) | stalled | still)
         return done | settled | (count >= self.budget), result
 
-    def moved(self, state, z, jac, resid):
+    def moved(self, state, jac, resid):
         """The squared length, in standard errors, of the move over the last
-        `STALL_STEPS` - 1 steps of `state` to `z` (inf if fewer were taken):
-        ``|J dz|^2 / s^2`` over the free coordinates, `jac` being ``d resid / d z`` at `z`
-        (the settle rule, `SETTLE`)."""
+        `STALL_STEPS` - 1 steps of `state` (inf if fewer were taken): ``|J dz|^2 / s^2``
+        over the free coordinates, `jac` being ``d resid / d z`` at the last point (the
+        settle rule, module docstring). The points are the ring's (optimistix passes
+        `terminate` the point before the step, with the state after it)."""
         _, count, _, points = state
         s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
-        dz = (z - points[count % STALL_STEPS]) * self.mask
+        dz = (points[(count - 1) % STALL_STEPS] - points[count % STALL_STEPS]) * self.mask
         move = jnp.sum((jac @ dz) ** 2)
         length = jnp.where(s2 > 0, move / jnp.where(s2 > 0, s2, 1.0),
                            jnp.where(move > 0, jnp.inf, 0.0))
