@@ -37,10 +37,12 @@ errors). Where the cost still falls, such steps crawl along undetermined directi
 there gains cost through the gradient while the prediction hardly changes (``|J dy|^2 =
 eig c^2``, ``eig < s^2`` per unit), the gain `decrease_left` leaves out of the rule. The
 stall rule below cannot see that (the cost keeps falling by more than `decrease` noise
-variances per `STALL_STEPS`), and such a fit ran to its step limit: the GMS option of a
-diagnosis on presliding data crawled for 200 steps, 2 noise variances in all, moving no
-estimate by more than 0.07 standard errors per 7 steps. As for the stall rule, a fit that
-stops so with more decrease predicted than chance allows is reported as a kink.
+variances per `STALL_STEPS`), and such a fit runs to its step limit (a GMS with more
+elements than the data need, on presliding data: hundreds of steps, each a small fraction
+of a noise variance, none moving an estimate visibly). The window is the stall rule's, so
+the rule bounds the rate of the move, not the distance left: where the linear model still
+predicts more than chance allows, the fit that stops so is reported as a kink, as for the
+stall rule. `tests/fitting/test_settle_rule.py` checks the bound and a synthetic crawl.
 
 MINPACK's lmder stops on a relative predicted reduction (``prered <= ftol``, a number
 without a statistical meaning, hence its tiny default); scipy's trf on the relative change
