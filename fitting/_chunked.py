@@ -236,6 +236,7 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", "converged"
     return None, None
 
+
 def _halted(out: _ChunkOut, left: float, bound: float, tol: Tolerances):
     """``(why, kind)`` when the steps stalled (the cost) or settled (the estimates,
     `fitting._stopping`), else None: converged, or a kink where more decrease is left
@@ -257,7 +258,6 @@ def _halted(out: _ChunkOut, left: float, bound: float, tol: Tolerances):
     return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): the "
             "linear model does not hold here (a kink of the cost) and the fit may be "
             "stuck", "kink")
-
 
 
 def _chance_bound(jac) -> float:
