@@ -12,7 +12,8 @@ Marquardt's column scaling renewed between them and stopping rules a user can re
 - *Stopping rules* (`Tolerances`, documented defaults), any one of which ends the fit as
   converged. Inside the compiled loop, after every step: the statistical rule of
   `fitting._stopping` (the Gauss-Newton decrease of the cost left over the directions the
-  data determine is at most `decrease` noise variances), and optimistix's own test (last
+  data determine is at most `decrease` noise variances; the steps stalled or settled,
+  `_halted`), and optimistix's own test (last
   step and change of every residual below ``atol + rtol*|value|``). Between chunks: the
   cost fell by less than `ftol` (relative) over the last `CHUNK` steps or more; those
   steps changed the prediction by less than `xtol` of the residual's norm; every column of
@@ -84,6 +85,7 @@ class _ChunkOut(eqx.Module):
     left: Array  # `decrease_left` at the end: the Gauss-Newton decrease left / s^2
     undetermined: Array  # how many free directions are undetermined there
     gained: Array  # the cost's decrease over the last `STALL_STEPS` steps / s^2 (or inf)
+    moved: Array  # their move's squared length in standard errors (`Stopping.moved`)
 
 
 def _scaled_residuals(z, args):
@@ -114,7 +116,8 @@ def _chunk_steps(problem: _Problem, y_c, inv_d, data: Dataset, solver, budget,
     return _ChunkOut(y=y_c + inv_d * sol.value, result=sol.result,
                      num_steps=sol.stats["num_steps"], resid=resid, jac=jac, force=force,
                      overflow=overflow, step_size=jnp.asarray(size, y_c.dtype), left=left,
-                     undetermined=count, gained=stopping.gained(sol.state, resid))
+                     undetermined=count, gained=stopping.gained(sol.state, resid),
+                     moved=stopping.moved(sol.state, inner.f_info.jac.as_matrix(), resid))
 
 
 @jit
@@ -186,16 +189,11 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
             return (f"the Gauss-Newton decrease left is {left:.2g} noise variances "
                     f"(decrease = {tol.decrease:g}): nothing the data can tell is left",
                     "converged")
-        gained = float(out.gained)
         bound = _chance_bound(out.jac)
-        if tol.decrease > 0 and gained <= tol.decrease:
-            why = (f"the steps stalled: the last {STALL_STEPS} gained under "
-                   f"{tol.decrease:g} noise variances, {left:.3g} predicted")
-            if left <= bound:
-                return why, "converged"
-            return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): "
-                    "the linear model does not hold here (a kink of the cost) and the fit "
-                    "may be stuck", "kink")
+        halted = _halted(out, left, bound, tol)
+        if halted is not None:
+            return halted
+        gained = float(out.gained)
         ref_y = ref[2]
         exact = np.sqrt(np.mean(np.asarray(out.resid) ** 2)) <= EXACT_RESIDUAL
         cosine = _max_cosine(out.jac, out.resid)
@@ -237,6 +235,29 @@ def _stop_reason(out: _ChunkOut, budget: int, cost: float, ref: tuple, tol: Tole
     if _max_cosine(out.jac, resid) <= tol.gtol:
         return f"the gradient is below gtol = {tol.gtol:g} (cosine test)", "converged"
     return None, None
+
+
+def _halted(out: _ChunkOut, left: float, bound: float, tol: Tolerances):
+    """``(why, kind)`` when the steps stalled (the cost) or settled (the estimates,
+    `fitting._stopping`), else None: converged, or a kink where more decrease is left
+    than chance allows (`bound`)."""
+    if tol.decrease <= 0:
+        return None
+    gained, moved = float(out.gained), float(out.moved)
+    if gained <= tol.decrease:
+        why = (f"the steps stalled: the last {STALL_STEPS} gained under "
+               f"{tol.decrease:g} noise variances, {left:.3g} predicted")
+    elif moved <= 2.0 * tol.decrease:
+        why = (f"the fit settled: the last {STALL_STEPS - 1} steps moved no linear "
+               f"combination of the parameters by more than {np.sqrt(moved):.2g} of its "
+               f"standard error, {left:.3g} noise variances predicted")
+    else:
+        return None
+    if left <= bound:
+        return why, "converged"
+    return ("NOT converged: " + why + f", more than chance allows ({bound:.3g}): the "
+            "linear model does not hold here (a kink of the cost) and the fit may be "
+            "stuck", "kink")
 
 
 def _chance_bound(jac) -> float:

@@ -28,6 +28,22 @@ depend on values the data cannot fix (a Stribeck curve fitted to presliding data
 `fitting._chunked` then holds such parameters at their start and says so
 (`FitResult.undetermined`).
 
+**The settle rule** (`Stopping.moved`). A move ``dy`` changes any linear combination
+``a^T y`` by at most ``|J dy| / s`` of that combination's standard error (Cauchy-Schwarz
+with ``cov(y) = s^2 (J^T J)^-1``: ``|a^T dy| <= sqrt(a^T (J^T J)^-1 a) |J dy|``). The fit
+stops when the last `STALL_STEPS` - 1 steps together moved it by ``|J dy|^2 <= 2 decrease
+s^2``: no estimate moved by more than the bias the statistical rule leaves (0.14 standard
+errors). Where the cost still falls, such steps crawl along undetermined directions: a move
+there gains cost through the gradient while the prediction hardly changes (``|J dy|^2 =
+eig c^2``, ``eig < s^2`` per unit), the gain `decrease_left` leaves out of the rule. The
+stall rule below cannot see that (the cost keeps falling by more than `decrease` noise
+variances per `STALL_STEPS`), and such a fit runs to its step limit (a GMS with more
+elements than the data need, on presliding data: hundreds of steps, each a small fraction
+of a noise variance, none moving an estimate visibly). The window is the stall rule's, so
+the rule bounds the rate of the move, not the distance left: where the linear model still
+predicts more than chance allows, the fit that stops so is reported as a kink, as for the
+stall rule. `tests/fitting/test_settle_rule.py` checks the bound and a synthetic crawl.
+
 MINPACK's lmder stops on a relative predicted reduction (``prered <= ftol``, a number
 without a statistical meaning, hence its tiny default); scipy's trf on the relative change
 of the cost or of ``x``. Both creep along a valley for many steps, each lowering the cost
@@ -50,7 +66,8 @@ class Tolerances:
 
     - `decrease`: the statistical rule (module docstring): stop when the Gauss-Newton
       decrease of the cost left is at most this many noise variances (0.01: a bias of at
-      most 0.14 standard errors), or the steps stall (`STALL_STEPS`); 0 turns both off.
+      most 0.14 standard errors), or the steps stall (`STALL_STEPS`), or they settle (no
+      estimate moved by more than that bias over them); 0 turns all three off.
     - `undetermined`: standard error, in the solver's coordinates (a factor e for positive
       parameters), above which a direction or a parameter is undetermined: left out of the
       rule, and the parameter held at its start (`fit`, `fit_datasets`).
@@ -127,20 +144,23 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             size = inner.search_state.step_size
             inner = eqx.tree_at(lambda s: s.search_state.step_size, inner,
                                 jnp.where(self.step_size > 0, self.step_size, size))
-        # The cost after each of the last `STALL_STEPS` steps (a ring; inf until filled).
+        # The cost after each of the last `STALL_STEPS` steps (a ring; inf until filled),
+        # and the point (the solver's coordinates) after each of them.
         costs = jnp.full((STALL_STEPS,), jnp.inf, y.dtype)
-        return inner, jnp.zeros((), jnp.int32), costs
+        points = jnp.zeros((STALL_STEPS,) + jnp.shape(y), y.dtype)
+        return inner, jnp.zeros((), jnp.int32), costs, points
 
     def step(self, fn, y, args, options, state, tags):
-        inner, count, costs = state
+        inner, count, costs, points = state
         y, inner, aux = self.solver.step(fn, y, args, options, inner, tags)
         f_info = getattr(inner, "f_info", None)
         if isinstance(f_info, optx.FunctionInfo.ResidualJac):
             costs = costs.at[count % STALL_STEPS].set(0.5 * jnp.sum(f_info.residual**2))
-        return y, (inner, count + 1, costs), aux
+        points = points.at[count % STALL_STEPS].set(y)
+        return y, (inner, count + 1, costs, points), aux
 
     def terminate(self, fn, y, args, options, state, tags):
-        inner, count, costs = state
+        inner, count, costs, _ = state
         done, result = self.solver.terminate(fn, y, args, options, inner, tags)
         settled = jnp.asarray(False)
         f_info = getattr(inner, "f_info", None)
@@ -155,13 +175,29 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             # STALL_STEPS - 1 steps ago; the newest is now.
             achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
             stalled = (self.decrease > 0) & (achieved <= self.decrease * s2)
-            settled = (count >= 1) & ((ratio <= self.decrease) | stalled)
+            still = (self.decrease > 0) & (self.moved(state, f_info.jac.as_matrix(), resid)
+                                           <= 2.0 * self.decrease)
+            settled = (count >= 1) & ((ratio <= self.decrease) | stalled | still)
         return done | settled | (count >= self.budget), result
+
+    def moved(self, state, jac, resid):
+        """The squared length, in standard errors, of the move over the last
+        `STALL_STEPS` - 1 steps of `state` (inf if fewer were taken): ``|J dz|^2 / s^2``
+        over the free coordinates, `jac` being ``d resid / d z`` at the last point (the
+        settle rule, module docstring). The points are the ring's (optimistix passes
+        `terminate` the point before the step, with the state after it)."""
+        _, count, _, points = state
+        s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+        dz = (points[(count - 1) % STALL_STEPS] - points[count % STALL_STEPS]) * self.mask
+        move = jnp.sum((jac @ dz) ** 2)
+        length = jnp.where(s2 > 0, move / jnp.where(s2 > 0, s2, 1.0),
+                           jnp.where(move > 0, jnp.inf, 0.0))
+        return jnp.where(count >= STALL_STEPS, length, jnp.inf)
 
     def gained(self, state, resid):
         """The decrease of the cost over the last `STALL_STEPS` steps of `state` (inf if
         fewer were taken), in noise variances of `resid`."""
-        _, count, costs = state
+        _, count, costs, _ = state
         s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
         achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
         return jnp.where(s2 > 0, achieved / jnp.where(s2 > 0, s2, 1.0), jnp.inf)
