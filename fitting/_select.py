@@ -63,6 +63,7 @@ from ._candidates import _off, _signals, physical, start_effect, switchable
 from ._fit import _finite
 from ._refits import _replaced, Fitter, Option
 from ._rules import DiagnosisRules
+from ._start import lag_starts
 
 
 def time_block_folds(t, blocks: int, folds: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -204,9 +205,9 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
-    fitted, pred = fitter.fit(superset, frozenset())
+    fitted, pred, won = fitter.race(lag_starts(superset), frozenset())
     current = Option(("base",), superset, frozenset(), fitted=fitted, pred=pred,
-                     result=fitter.last,
+                     result=fitter.last, start=won,
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
     earlier = {}  # base-model option name -> (start, make, its plain fit of the round before)

@@ -250,6 +250,28 @@ def _viscous(model, t, x, F, v, vel):
     return _best([model, *more], t, x, F, v) if more else model
 
 
+def lag_starts(model) -> list[tuple[str, object]]:
+    """``[(label, model)]``: the starts a base fit from `model` races (the better training
+    fit wins: `fitting._refits.Fitter.race`): `model` itself (``"given start"``) and, for a
+    model with a friction lag (a ``C`` and a Stribeck curve: two-state, GMS; with or
+    without effects), the same with the fastest lag time ``Fs/C`` of `LAG_TIMES`
+    (``"fast-lag start"``) where its own is slower. `initial_model` picks the lag by the
+    SSE of crude simulations, before any fit; from a slow lag (seconds) a fit can settle in
+    an optimum where the lag acts as a memory of the motion (``sigma2`` -> 0, a flat
+    curve), far off the fit from a fast lag, whose held-out predictions are far worse
+    (tests/diagnosis/test_lag_race.py). Any other model: `model` alone."""
+    base = model.without_effects()
+    C, stribeck = getattr(base, "C", None), getattr(base, "stribeck", None)
+    if C is None or stribeck is None:
+        return [("given start", model)]
+    fast = min(LAG_TIMES)
+    if float(stribeck.Fs) / float(C) <= fast:
+        return [("given start", model)]
+    get = (lambda m: m.C) if base is model else (lambda m: m.without_effects().C)
+    faster = eqx.tree_at(get, model, jnp.asarray(float(stribeck.Fs) / fast, jnp.asarray(C).dtype))
+    return [("given start", model), ("fast-lag start", faster)]
+
+
 def steady_sliding_weights(t, x, F, v=None) -> np.ndarray:
     """Weights for fitting a static model (`jaxfric.Tustin`) where it can represent the
     data: 1 on the steady sliding samples (`fitting._steady.steady_sliding`, beyond twice
