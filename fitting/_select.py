@@ -205,9 +205,10 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
-    fitted, pred, won = fitter.race(lag_starts(superset), frozenset())
-    current = Option(("base",), superset, frozenset(), fitted=fitted, pred=pred,
-                     result=fitter.last, start=won,
+    starts = lag_starts(superset)  # the kept fit's start is its folds' start too
+    fitted, pred, won = fitter.race(starts, frozenset())
+    current = Option(("base",), dict(starts).get(won, superset), frozenset(), fitted=fitted,
+                     pred=pred, result=fitter.last, start=won,
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
     earlier = {}  # base-model option name -> (start, make, its plain fit of the round before)

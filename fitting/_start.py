@@ -264,11 +264,11 @@ def lag_starts(model) -> list[tuple[str, object]]:
     C, stribeck = getattr(base, "C", None), getattr(base, "stribeck", None)
     if C is None or stribeck is None:
         return [("given start", model)]
-    fast = min(LAG_TIMES)
-    if float(stribeck.Fs) / float(C) <= fast:
+    fast_C = float(stribeck.Fs) / min(LAG_TIMES)  # as `initial_model` sets it
+    if float(C) >= fast_C:
         return [("given start", model)]
     get = (lambda m: m.C) if base is model else (lambda m: m.without_effects().C)
-    faster = eqx.tree_at(get, model, jnp.asarray(float(stribeck.Fs) / fast, jnp.asarray(C).dtype))
+    faster = eqx.tree_at(get, model, jnp.asarray(fast_C, jnp.asarray(C).dtype))
     return [("given start", model), ("fast-lag start", faster)]
 
 
