@@ -10,6 +10,10 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 Its Jacobian is computed over the free coordinates only (``fit_datasets(..., narrow=True)``:
 slots of 8, one program per width; the same fit, without the held effects' columns).
 
+**The base model** is fitted from its start and, with a friction lag, from a fast-lag
+start (`fitting._start.lag_starts`), the better training fit kept (`Fitter.race`); its
+folds start from the start kept.
+
 **Each round** (forward selection):
 
 1. each option is fitted jointly with the current model to convergence on every sample

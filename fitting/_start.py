@@ -28,6 +28,7 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   data's speeds (`NEVER_SLIDING`), ``sigma2`` at the steady curve's floor.
 - **Friction lag** ``C`` (two-state, GMS): the lag time constant ``Fs/C`` is not measurable
   before the presliding and the curve are known, so it is one of the uncertain values below.
+  The diagnosis's base fit also starts from the fastest of `LAG_TIMES` (`lag_starts`).
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
   estimate), the lag time constant (`LAG_TIMES`) and, for the two-state and GMS starts,
   the curve's exponent (`LAG_DELTAS`; without speed bins, the static curves) are tried
