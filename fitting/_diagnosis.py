@@ -22,7 +22,8 @@ class Step:
     regimes: dict
     rel_error: float = float("nan")  # rmse / RMS of the measured force
     #: The baseline: the start its fit was kept from where starts raced
-    #: (`fitting._start.lag_starts`: ``"given start"`` or ``"fast-lag start"``), else "".
+    #: (`fitting._start.lag_starts`: ``"given start"`` or ``"fast-lag start"``), else "";
+    #: the summary names a start other than the given one.
     start: str = ""
 
 
@@ -116,7 +117,8 @@ class Diagnosis:
     def summary(self) -> str:
         lines = ([f"cross-validation: leave one run out ({len(self.runs)} runs)"]
                  if self.folds == "runs" else [])
-        start = f" (from the {self.baseline.start})" if self.baseline.start else ""
+        start = (f" (from the {self.baseline.start})"
+                 if self.baseline.start not in ("", "given start") else "")
         lines += [f"baseline {self.model_name}{start}: RMSE {self.baseline.rmse:.4g} N "
                  f"(held out {self.baseline.rmse_holdout:.4g} N, "
                  f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
