@@ -479,11 +479,11 @@ def diagnose(
     n = full.t.size
     base_full, search, won = None, "", ""
     copy, pick = full, np.arange(n)
-    if search_samples and n >= 2 * search_samples:
-        # the baseline on every sample, and the model the copy is judged with
+    if search_samples and n >= 2 * search_samples:  # the baseline, the copy's judge
         log(f"fitting the base model on all {n} samples ...")
         f = Fitter(full, fixed, max_steps, log)
-        won = f.race(lag_starts(model), frozenset(range(len(getattr(model, "effects", ())))))[2]
+        won = f.race(lag_starts(model, fixed),
+                     frozenset(range(len(getattr(model, "effects", ())))))[2]
         base_full, fit = f.last, f.last.fit_model
         tried = base_model_starts(base_models, fit)
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)

@@ -209,7 +209,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
-    starts = lag_starts(superset)  # the kept fit's start is its folds' start too
+    starts = lag_starts(superset, fitter.fixed)  # the kept fit's start is its folds' start too
     fitted, pred, won = fitter.race(starts, frozenset())
     current = Option(("base",), dict(starts).get(won, superset), frozenset(), fitted=fitted,
                      pred=pred, result=fitter.last, start=won,

@@ -251,7 +251,7 @@ def _viscous(model, t, x, F, v, vel):
     return _best([model, *more], t, x, F, v) if more else model
 
 
-def lag_starts(model) -> list[tuple[str, object]]:
+def lag_starts(model, fixed=()) -> list[tuple[str, object]]:
     """``[(label, model)]``: the starts a base fit from `model` races (the better training
     fit wins: `fitting._refits.Fitter.race`): `model` itself (``"given start"``) and, for a
     model with a friction lag (a ``C`` and a Stribeck curve: two-state, GMS; with or
@@ -260,10 +260,11 @@ def lag_starts(model) -> list[tuple[str, object]]:
     SSE of crude simulations, before any fit; from a slow lag (seconds) a fit can settle in
     an optimum where the lag acts as a memory of the motion (``sigma2`` -> 0, a flat
     curve), far off the fit from a fast lag, whose held-out predictions are far worse
-    (tests/diagnosis/test_lag_race.py). Any other model: `model` alone."""
+    (tests/diagnosis/test_lag_race.py). Any other model, or ``C`` among the parameters
+    held at their values (`fixed`): `model` alone."""
     base = model.without_effects()
     C, stribeck = getattr(base, "C", None), getattr(base, "stribeck", None)
-    if C is None or stribeck is None:
+    if C is None or stribeck is None or "C" in fixed:
         return [("given start", model)]
     fast_C = float(stribeck.Fs) / min(LAG_TIMES)  # as `initial_model` sets it
     if float(C) >= fast_C:

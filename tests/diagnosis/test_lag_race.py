@@ -36,7 +36,9 @@ def test_lag_starts_add_the_fastest_lag_only_to_a_model_with_a_slower_lag():
     assert float(w1.effects[0].offset) == 1.5 and float(w0.without_effects().C) == 9.0
     gms = jaxfric.GMS.from_shape(slow.shape, slow.stribeck, 50.0, 9.0, 5)
     assert float(lag_starts(gms)[1][1].C) == pytest.approx(26.0 / min(LAG_TIMES), rel=1e-12)
-    # a lag as fast already, and models without a friction lag: the given start alone
+    # a lag held at its value (`fixed`), a lag as fast already, and models without a
+    # friction lag: the given start alone
+    assert lag_starts(slow, ("C",)) == [("given start", slow)]
     assert len(lag_starts(_two_state(26.0 / min(LAG_TIMES)))) == 1
     stribeck = slow.stribeck
     assert len(lag_starts(jaxfric.Tustin(stribeck=stribeck, sigma2=50.0))) == 1
