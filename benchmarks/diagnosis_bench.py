@@ -220,17 +220,15 @@ def clean_holdout(case: dict, start) -> float:
 
 
 def _raced_start(start, d):
-    """The start of `start`'s lag starts whose fit on `d` has the least SSE, as the
-    diagnosis's base fit races them (`fitting._start.lag_starts`, `Fitter.race`)."""
-    import fitting
+    """The start of `start`'s lag starts whose fit on `d` the diagnosis's base fit keeps
+    (`fitting._start.lag_starts`, `Fitter.race`)."""
+    from fitting._params import to_fit_representation
+    from fitting._refits import Fitter
     from fitting._start import lag_starts
 
-    starts = [s for _, s in lag_starts(start)]
-    if len(starts) == 1:
-        return start
-    sse = [float(np.sum((np.asarray(fitting.fit(s, d.t, d.x, d.F, d.v, a=d.a, max_steps=150)
-                                    .prediction) - d.F) ** 2)) for s in starts]
-    return starts[int(np.argmin(np.where(np.isfinite(sse), sse, np.inf)))]
+    starts = lag_starts(to_fit_representation(start))
+    won = Fitter(d, (), 150).race(starts, frozenset())[2]
+    return dict(starts).get(won, start)
 
 
 def absorbed(row: dict) -> bool:
