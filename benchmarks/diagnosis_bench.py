@@ -203,6 +203,7 @@ def clean_holdout(case: dict, start) -> float:
     if not case["hidden"]:
         return float("nan")
     full, _ = _record(*_measure(case, ()), None, None, None, "central", None)
+    start = _raced_start(start, full)
     copy = full
     if full.t.size >= 2 * SEARCH_SAMPLES:
         fitted = fitting.fit(start, full.t, full.x, full.F, full.v, a=full.a,
@@ -216,6 +217,18 @@ def clean_holdout(case: dict, start) -> float:
                           max_steps=150)
         sse += float(np.sum(((np.asarray(res.prediction) - copy.F) ** 2)[test > 0]))
     return float(np.sqrt(sse / copy.t.size))
+
+
+def _raced_start(start, d):
+    """The start of `start`'s lag starts whose fit on `d` the diagnosis's base fit keeps
+    (`fitting._start.lag_starts`, `Fitter.race`)."""
+    from fitting._params import to_fit_representation
+    from fitting._refits import Fitter
+    from fitting._start import lag_starts
+
+    starts = lag_starts(to_fit_representation(start))
+    won = Fitter(d, (), 150).race(starts, frozenset())[2]
+    return dict(starts).get(won, start)
 
 
 def absorbed(row: dict) -> bool:

@@ -51,7 +51,7 @@ from ._refits import _replaced, Fitter, Option
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
 from ._select import _base_starts, _blocks, held_out_sse, run_folds, select, time_block_folds
-from ._start import gms_like, initial_model
+from ._start import gms_like, initial_model, lag_starts
 
 
 #: A record of at least twice this many samples is searched on about this many.
@@ -334,9 +334,9 @@ def _prediction(res) -> np.ndarray:
     return np.concatenate([np.asarray(q) for q in p]) if isinstance(p, tuple) else np.asarray(p)
 
 
-def _step(res, added, full: Data, holdout_rmse: float, masks) -> Step:
+def _step(res, added, full: Data, holdout_rmse: float, masks, start: str = "") -> Step:
     resid = _prediction(res) - full.F
-    return Step(added=list(added), fit=res, rmse=float(np.sqrt(np.mean(resid**2))),
+    return Step(added=list(added), fit=res, start=start, rmse=float(np.sqrt(np.mean(resid**2))),
                 rmse_holdout=holdout_rmse, regimes=regime_errors(-resid, masks),
                 rel_error=float(np.sqrt(np.mean(resid**2) / np.mean(full.F**2))))
 
@@ -477,14 +477,14 @@ def diagnose(
     if any(not starts for _, starts in base_models):
         raise ValueError("base_models: every base model needs a start")
     n = full.t.size
-    base_full, search = None, ""
+    base_full, search, won = None, "", ""
     copy, pick = full, np.arange(n)
-    if search_samples and n >= 2 * search_samples:
-        # the baseline on every sample, and the model the copy is judged with
+    if search_samples and n >= 2 * search_samples:  # the baseline, the copy's judge
         log(f"fitting the base model on all {n} samples ...")
-        base_full = _final_fit(Fitter(full, fixed, max_steps), model,
-                               range(len(getattr(model, "effects", ()))), full, full, log, "")
-        fit = base_full.fit_model
+        f = Fitter(full, fixed, max_steps, log)
+        won = f.race(lag_starts(model, fixed),
+                     frozenset(range(len(getattr(model, "effects", ())))))[2]
+        base_full, fit = f.last, f.last.fit_model
         tried = base_model_starts(base_models, fit)
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
         search = (f"effects searched on {copy.t.size} of the {n} samples (about "
@@ -511,7 +511,7 @@ def diagnose(
     first = rounds[0].current
     base_res = (base_full if base_full is not None else
                 _final_fit(fitter, first.fitted, first.on, copy, full, log, "the baseline"))
-    baseline = _step(base_res, [], full, cv_rmse(first), masks)
+    baseline = _step(base_res, [], full, cv_rmse(first), masks, won or first.start)
     steps, added, findings = [], [], []
     chosen = [r.added for r in rounds if r.added is not None]
     held = "runs" if by == "runs" else "blocks"

@@ -21,6 +21,10 @@ class Step:
     rmse_holdout: float
     regimes: dict
     rel_error: float = float("nan")  # rmse / RMS of the measured force
+    #: The baseline: the start its fit was kept from where starts raced
+    #: (`fitting._start.lag_starts`: ``"given start"`` or ``"fast-lag start"``), else "";
+    #: the summary names a start other than the given one.
+    start: str = ""
 
 
 @dataclasses.dataclass
@@ -77,7 +81,7 @@ class Diagnosis:
             "baseline": {"model": self.model_name, "rmse": self.baseline.rmse,
                          "rmse_holdout": self.baseline.rmse_holdout,
                          "rel_error": self.baseline.rel_error,
-                         "regimes": self.baseline.regimes},
+                         "regimes": self.baseline.regimes, "start": self.baseline.start},
             "candidates": [c.to_json() for c in self.candidates],
             "after": {"added": self.final.added, "rmse": self.final.rmse,
                       "rmse_holdout": self.final.rmse_holdout,
@@ -113,7 +117,9 @@ class Diagnosis:
     def summary(self) -> str:
         lines = ([f"cross-validation: leave one run out ({len(self.runs)} runs)"]
                  if self.folds == "runs" else [])
-        lines += [f"baseline {self.model_name}: RMSE {self.baseline.rmse:.4g} N "
+        start = (f" (from the {self.baseline.start})"
+                 if self.baseline.start not in ("", "given start") else "")
+        lines += [f"baseline {self.model_name}{start}: RMSE {self.baseline.rmse:.4g} N "
                  f"(held out {self.baseline.rmse_holdout:.4g} N, "
                  f"{100 * self.baseline.rel_error:.3g} % of the RMS force)"]
         if self.velocity:

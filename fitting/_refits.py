@@ -149,6 +149,28 @@ class Fitter:
         self.last = res
         return res.fit_model, d.simulate(res.fit_model, fitted)
 
+    def race(self, starts, on: frozenset):
+        """``(fitted, prediction, label)``: one model fitted on every sample from each of
+        `starts` (``[(label, model)]``, `fitting._start.lag_starts`), `max_steps` each; the
+        fit of the least training SSE (a non-finite one never wins) is kept and, where it
+        stopped at its step limit, continued once (as the base-model options race,
+        `fitting._select._race`); `last` is its result. One start: one `fit`, label ``""``."""
+        if len(starts) == 1:
+            return (*self.fit(starts[0][1], on), "")
+        fits, ok = [], np.isfinite(self.data.F)
+        for label, model in starts:
+            self.log(f"  from the {label} ...")
+            fitted, pred = self.fit(model, on)
+            sse = float(np.sum((pred - self.data.F)[ok] ** 2))
+            fits.append((sse if np.isfinite(sse) else np.inf, label, fitted, pred, self.last))
+        sse, label, fitted, pred, self.last = min(fits, key=lambda f: f[0])
+        self.log(f"  kept the fit from the {label} (training RMSE "
+                 f"{np.sqrt(sse / ok.sum()):.4g} N)")
+        if not _converged(self.last):
+            self.log(f"  continuing the fit from the {label} ...")
+            fitted, pred = self.fit(fitted, on)
+        return fitted, pred, label
+
     def fold_fit(self, model, on: frozenset, train=None):
         """`fit` on a fold's training samples (every sample without `train`), continued
         once from where it stopped when it did not converge: the step budget of every

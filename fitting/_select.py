@@ -10,6 +10,10 @@ switches its effect on by freeing its parameters (the free set is data, not stru
 Its Jacobian is computed over the free coordinates only (``fit_datasets(..., narrow=True)``:
 slots of 8, one program per width; the same fit, without the held effects' columns).
 
+**The base model** is fitted from its start and, with a friction lag, from a fast-lag
+start (`fitting._start.lag_starts`), the better training fit kept (`Fitter.race`); its
+folds start from the start kept.
+
 **Each round** (forward selection):
 
 1. each option is fitted jointly with the current model to convergence on every sample
@@ -63,6 +67,7 @@ from ._candidates import _off, _signals, physical, start_effect, switchable
 from ._fit import _finite
 from ._refits import _replaced, Fitter, Option
 from ._rules import DiagnosisRules
+from ._start import lag_starts
 
 
 def time_block_folds(t, blocks: int, folds: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -204,9 +209,10 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
-    fitted, pred = fitter.fit(superset, frozenset())
-    current = Option(("base",), superset, frozenset(), fitted=fitted, pred=pred,
-                     result=fitter.last,
+    starts = lag_starts(superset, fitter.fixed)  # the kept fit's start is its folds' start too
+    fitted, pred, won = fitter.race(starts, frozenset())
+    current = Option(("base",), dict(starts).get(won, superset), frozenset(), fitted=fitted,
+                     pred=pred, result=fitter.last, start=won,
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
     earlier = {}  # base-model option name -> (start, make, its plain fit of the round before)

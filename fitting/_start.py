@@ -28,6 +28,7 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   data's speeds (`NEVER_SLIDING`), ``sigma2`` at the steady curve's floor.
 - **Friction lag** ``C`` (two-state, GMS): the lag time constant ``Fs/C`` is not measurable
   before the presliding and the curve are known, so it is one of the uncertain values below.
+  The diagnosis's base fit also starts from the fastest of `LAG_TIMES` (`lag_starts`).
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
   estimate), the lag time constant (`LAG_TIMES`) and, for the two-state and GMS starts,
   the curve's exponent (`LAG_DELTAS`; without speed bins, the static curves) are tried
@@ -248,6 +249,29 @@ def _viscous(model, t, x, F, v, vel):
     more = [eqx.tree_at(lambda m: m.sigma2, model, jnp.asarray(k * fc / v90))
             for k in VISCOUS_SHARES if k > share]
     return _best([model, *more], t, x, F, v) if more else model
+
+
+def lag_starts(model, fixed=()) -> list[tuple[str, object]]:
+    """``[(label, model)]``: the starts a base fit from `model` races (the better training
+    fit wins: `fitting._refits.Fitter.race`): `model` itself (``"given start"``) and, for a
+    model with a friction lag (a ``C`` and a Stribeck curve: two-state, GMS; with or
+    without effects), the same with the fastest lag time ``Fs/C`` of `LAG_TIMES`
+    (``"fast-lag start"``) where its own is slower. `initial_model` picks the lag by the
+    SSE of crude simulations, before any fit; from a slow lag (seconds) a fit can settle in
+    an optimum where the lag acts as a memory of the motion (``sigma2`` -> 0, a flat
+    curve), far off the fit from a fast lag, whose held-out predictions are far worse
+    (tests/diagnosis/test_lag_race.py). Any other model, or ``C`` among the parameters
+    held at their values (`fixed`): `model` alone."""
+    base = model.without_effects()
+    C, stribeck = getattr(base, "C", None), getattr(base, "stribeck", None)
+    if C is None or stribeck is None or "C" in fixed:
+        return [("given start", model)]
+    fast_C = float(stribeck.Fs) / min(LAG_TIMES)  # as `initial_model` sets it
+    if float(C) >= fast_C:
+        return [("given start", model)]
+    get = (lambda m: m.C) if base is model else (lambda m: m.without_effects().C)
+    faster = eqx.tree_at(get, model, jnp.asarray(fast_C, jnp.asarray(C).dtype))
+    return [("given start", model), ("fast-lag start", faster)]
 
 
 def steady_sliding_weights(t, x, F, v=None) -> np.ndarray:
