@@ -52,10 +52,10 @@ A run writes every file's row (what was added, the rankings, every refit tried, 
 diagnosis summary) to ``--out`` (default: in the system's temporary folder, not the
 repository), and a summary of counts per corner (`summary`) to ``--summary`` (default
 ``benchmarks/diagnosis_bench.json``, the file docs/validation.md is generated from): the
-corners the run covered replace theirs there, the others are kept. A ``--quick`` or
-``--only`` run writes its summary next to ``--out`` instead. ``--summarise ROWS.json ...``
-runs nothing: it summarises earlier runs' rows into ``--summary`` (a file in a later run
-replaces the same file in an earlier one).
+corners the run covered replace theirs there, the others are kept. A ``--quick``,
+``--only`` or ``--files`` run writes its summary next to ``--out`` instead.
+``--summarise ROWS.json ...`` runs nothing: it summarises earlier runs' rows into
+``--summary`` (a file in a later run replaces the same file in an earlier one).
 
 The default run (3 truths x 2 noise levels x 2 sampling intervals x 16 files) takes about
 3 hours on the 2-core machine; ``--quick`` runs one truth, noise level and interval (16
@@ -451,6 +451,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="every file's row, JSON (default: %(default)s)")
     ap.add_argument("--summary", help=f"the summary JSON (default: {SUMMARY}; with --quick "
                     "or --only: next to --out)")
+    ap.add_argument("--files", help="comma-separated files, each named by its hidden "
+                    "effects joined by '+' ('clean' for none): run exactly those (a corner's "
+                    "files that a change can touch; --summarise merges them with a full run)")
     ap.add_argument("--only", help="comma-separated hidden effects: run the files whose "
                     "hidden effects are all among them (and the clean files)")
     ap.add_argument("--truths", help="comma-separated truths (default: "
@@ -485,7 +488,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     summary_path = Path(args.summary) if args.summary else (
-        out.with_name(out.stem + "_summary.json") if args.quick or args.only else SUMMARY)
+        out.with_name(out.stem + "_summary.json") if args.quick or args.only or args.files
+        else SUMMARY)
     if args.summarise:
         rows, runs = load_rows(args.summarise)
         print_summary(write_summary(summary_path, rows, runs, args.note))
@@ -509,6 +513,9 @@ def main(argv=None) -> int:
     if args.only:
         keep = set(args.only.split(","))
         todo = [c for c in todo if set(c["hidden"]) <= keep]
+    if args.files:
+        wanted = set(args.files.split(","))
+        todo = [c for c in todo if ("+".join(c["hidden"]) or "clean") in wanted]
     print(f"{len(todo)} files; each is fitted and diagnosed ({args.jobs} worker(s))",
           flush=True)
     rows, t0 = [], time.perf_counter()
