@@ -170,7 +170,7 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             jac = f_info.jac.as_matrix() / self.inv_d
             resid = f_info.residual.ravel()
             ratio, _ = decrease_left(jac, resid, self.mask, self.n_obs, self.undetermined)
-            s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+            s2 = self.noise_variance(resid)
             # The ring's oldest entry (the next to be overwritten) is the cost
             # STALL_STEPS - 1 steps ago; the newest is now.
             achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
@@ -180,6 +180,10 @@ class Stopping(optx.AbstractLeastSquaresSolver):
             settled = (count >= 1) & ((ratio <= self.decrease) | stalled | still)
         return done | settled | (count >= self.budget), result
 
+    def noise_variance(self, resid):
+        """``s^2``: the sum of squared residuals over the residual degrees of freedom."""
+        return jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+
     def moved(self, state, jac, resid):
         """The squared length, in standard errors, of the move over the last
         `STALL_STEPS` - 1 steps of `state` (inf if fewer were taken): ``|J dz|^2 / s^2``
@@ -187,7 +191,7 @@ class Stopping(optx.AbstractLeastSquaresSolver):
         settle rule, module docstring). The points are the ring's (optimistix passes
         `terminate` the point before the step, with the state after it)."""
         _, count, _, points = state
-        s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+        s2 = self.noise_variance(resid)
         dz = (points[(count - 1) % STALL_STEPS] - points[count % STALL_STEPS]) * self.mask
         move = jnp.sum((jac @ dz) ** 2)
         length = jnp.where(s2 > 0, move / jnp.where(s2 > 0, s2, 1.0),
@@ -198,7 +202,7 @@ class Stopping(optx.AbstractLeastSquaresSolver):
         """The decrease of the cost over the last `STALL_STEPS` steps of `state` (inf if
         fewer were taken), in noise variances of `resid`."""
         _, count, costs, _ = state
-        s2 = jnp.sum(resid**2) / jnp.maximum(self.n_obs - jnp.sum(self.mask), 1.0)
+        s2 = self.noise_variance(resid)
         achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
         return jnp.where(s2 > 0, achieved / jnp.where(s2 > 0, s2, 1.0), jnp.inf)
 
