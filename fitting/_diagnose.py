@@ -477,13 +477,13 @@ def diagnose(
     if any(not starts for _, starts in base_models):
         raise ValueError("base_models: every base model needs a start")
     n = full.t.size
-    base_full, search, won = None, "", ""
-    copy, pick = full, np.arange(n)
+    base_full, search, won, copy, pick = None, "", "", full, np.arange(n)
     if search_samples and n >= 2 * search_samples:  # the baseline, the copy's judge
         log(f"fitting the base model on all {n} samples ...")
         f = Fitter(full, fixed, max_steps, log)
-        won = f.race(lag_starts(model, fixed),
-                     frozenset(range(len(getattr(model, "effects", ())))))[2]
+        starts = lag_starts(model, fixed)  # raced here, the winner the copy's start
+        won = f.race(starts, frozenset(range(len(getattr(model, "effects", ())))))[2]
+        model = dict(starts).get(won, model)
         base_full, fit = f.last, f.last.fit_model
         tried = base_model_starts(base_models, fit)
         copy, pick, faithful = _search_copy(full, fit, search_samples, log, tried)
@@ -500,7 +500,7 @@ def diagnose(
                          else present, rotary, full.load is not None)
     fitter = Fitter(copy, fixed, max_steps, log)
     rounds = select(fitter, model, names, folds, rules,
-                    base_options=lambda: list(base_models), log=log)
+                    base_options=lambda: list(base_models), log=log, race=base_full is None)
     masks = _masks(full)
     n_copy = copy.t.size
 

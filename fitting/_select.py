@@ -11,8 +11,9 @@ Its Jacobian is computed over the free coordinates only (``fit_datasets(..., nar
 slots of 8, one program per width; the same fit, without the held effects' columns).
 
 **The base model** is fitted from its start and, with a friction lag, from a fast-lag
-start (`fitting._start.lag_starts`), the better training fit kept (`Fitter.race`); its
-folds start from the start kept.
+start (`fitting._start.lag_starts`), the better training fit kept (`Fitter.race`; not
+again when `diagnose` raced them on every sample of a long record); its folds start from
+the start kept.
 
 **Each round** (forward selection):
 
@@ -196,12 +197,14 @@ class Round:
 
 
 def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: DiagnosisRules,
-           base_options: Callable[[], list] = lambda: [], log=None) -> list[Round]:
+           base_options: Callable[[], list] = lambda: [], log=None,
+           race: bool = True) -> list[Round]:
     """Forward selection from model `start` (plain) over effect names `candidates` and the
     base models `base_options()` gives (``[(name, ((label, plain model or maker), ...))]``:
     each fitted from every start, the best training fit kept, `_replaced`);
-    see the module docstring. Returns the rounds; the last round's ``current`` is the
-    final model."""
+    see the module docstring. `race`: the base fit races its lag starts; False where the
+    caller raced them already (on every sample of a long record) and `start` is the one
+    kept. Returns the rounds; the last round's ``current`` is the final model."""
     log = log or (lambda *_: None)
     data = fitter.data
     names = [n for n in candidates if switchable(n)]
@@ -209,7 +212,8 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     slots = [_off(data.grid(n)[0]) for n in names]
     superset = plain + tuple(slots)
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
-    starts = lag_starts(superset, fitter.fixed)  # the kept fit's start is its folds' start too
+    # the kept fit's start is its folds' start too
+    starts = lag_starts(superset, fitter.fixed) if race else [("given start", superset)]
     fitted, pred, won = fitter.race(starts, frozenset())
     current = Option(("base",), dict(starts).get(won, superset), frozenset(), fitted=fitted,
                      pred=pred, result=fitter.last, start=won,

@@ -74,12 +74,14 @@ def test_the_race_keeps_the_fast_lag_fit_where_the_slow_lag_start_settles_in_a_m
 
 
 def test_the_diagnosis_baseline_is_the_fast_lag_fit_and_says_so(record):
-    # search_samples 400: the baseline on every sample (`diagnose`'s own race) and the
-    # search's base fit (`select`'s) both race; the record's reversals keep every sample
+    # search_samples 400: the baseline on every sample races (`diagnose`'s race), and the
+    # search starts from the start it kept; the record's reversals keep every sample
     t, x, F, start = record
+    lines = []
     d = fitting.diagnose(start, t, x, F, effects=["offset"], base_models=(),
-                         search_samples=400)
+                         search_samples=400, log=lines.append)
     assert d.baseline.start == "fast-lag start"
+    assert sum("kept the fit from the" in line for line in lines) == 1  # raced once
     assert d.baseline.rmse < 0.7
     # the folds' fits start where the kept fit did: not from the slow lag (1.86 N)
     assert d.baseline.rmse_holdout < 0.7
