@@ -30,7 +30,9 @@ has one file per truth and hidden effect(s). The summary counts each corner over
 truth, and per hidden effect with what was named first instead (a confusion row). For
 each file the bench records what the diagnosis added (in order), the held-out RMSE before
 and after, and the same baseline's cross-validated held-out RMSE on the file's clean twin
-(same motion and noise, nothing hidden). Targets: a single
+(same motion and noise, nothing hidden). A hidden effect that exerts no force on the file
+(`acting_effects`: a drag felt above 5 mm/s on a sine sweep slower than that) is not
+counted: the file hides the others (``not_acting`` lists such files). Targets: a single
 hidden effect the first effect added in >= 90 % of files, both effects of a pair found in
 >= 80 %, no effect added on clean files, and at least half the excess error over the clean
 twin removed on every file where the effect was found. A base-model change (a GMS instead
@@ -153,6 +155,7 @@ def run_case(case: dict) -> dict:
 
     t0 = time.perf_counter()
     t, x, F = _measure(case, case["hidden"])
+    acting = acting_effects(case)
     kind = case.get("start", "two-state")
     start = fitting.initial_model(kind, t, x, F, fitting.estimate_velocity(t, x))
     n_runs = case.get("runs", 1)
@@ -166,7 +169,7 @@ def run_case(case: dict) -> dict:
     judge = _other_run(case, n_runs)
     base = fitting.run_model(d.baseline.fit.fit_model, None)
     judged = [c for c in d.candidates if np.isfinite(c.score)]
-    return {**case, "samples": int(t.size), "added": list(d.final.added),
+    return {**case, "acting": acting, "samples": int(t.size), "added": list(d.final.added),
             "folds": d.folds,
             "judged_run_rmse_before": _judged(base, judge),
             "judged_run_rmse_after": _judged(d.model, judge),
@@ -183,6 +186,21 @@ def run_case(case: dict) -> dict:
                            "t": c.t_stat if np.isfinite(c.t_stat) else None,
                            "significant": c.significant} for c in ranking]
                          for ranking in d.rankings]}
+
+
+def acting_effects(case: dict) -> list[str]:
+    """The file's hidden effects that exert a force on it: the same file with that effect
+    alone differs from its clean twin (same motion, clock and noise) on some sample. A drag
+    felt only above 5 mm/s does not act on a sine sweep that never reaches that speed."""
+    clean = _measure(case, ())[2]
+    return [h for h in case["hidden"] if np.any(_measure(case, [h])[2] != clean)]
+
+
+def hidden(row: dict) -> list[str]:
+    """What the file hides in fact (`acting_effects`; rows made before it was recorded:
+    every hidden effect): a file whose one hidden effect does not act is a clean file,
+    a pair with one that does not a single."""
+    return row.get("acting", row["hidden"])
 
 
 def clean_holdout(case: dict, start) -> float:
@@ -233,7 +251,7 @@ def _raced_start(start, d):
 
 def absorbed(row: dict) -> bool:
     clean = row.get("rmse_holdout_clean", float("nan"))
-    return bool(row["hidden"]) and row["rmse_holdout_before"] < (1 + ABSORBED) * clean
+    return bool(hidden(row)) and row["rmse_holdout_before"] < (1 + ABSORBED) * clean
 
 
 def effects_added(row: dict) -> list[str]:
@@ -258,9 +276,9 @@ def first_effect(row: dict) -> str | None:
 def found(row: dict) -> bool:
     """A single effect the first effect added (a base-model change may come before it),
     both effects of a pair added."""
-    if len(row["hidden"]) == 1:
-        return first_effect(row) == row["hidden"][0]
-    return set(row["hidden"]) <= set(row["added"])
+    if len(hidden(row)) == 1:
+        return first_effect(row) == hidden(row)[0]
+    return set(hidden(row)) <= set(row["added"])
 
 
 def file_key(row: dict) -> tuple:
@@ -278,13 +296,13 @@ def corner_key(row: dict) -> tuple:
 
 def counts(rows: list[dict]) -> dict:
     """The targets' numerators and denominators (``[found, files]``) for `rows`."""
-    singles = [r for r in rows if len(r["hidden"]) == 1]
-    pairs = [r for r in rows if len(r["hidden"]) == 2]
-    clean = [r for r in rows if not r["hidden"]]
-    gone = {(r["truth"],) + corner_key(r) + (r["hidden"][0],) for r in singles if absorbed(r)}
+    singles = [r for r in rows if len(hidden(r)) == 1]
+    pairs = [r for r in rows if len(hidden(r)) == 2]
+    clean = [r for r in rows if not hidden(r)]
+    gone = {(r["truth"],) + corner_key(r) + (hidden(r)[0],) for r in singles if absorbed(r)}
     left = [r for r in singles if not absorbed(r)]
     findable = [r for r in pairs if not any(
-        (r["truth"],) + corner_key(r) + (h,) in gone for h in r["hidden"])]
+        (r["truth"],) + corner_key(r) + (h,) in gone for h in hidden(r))]
     removed = []
     for r in singles + pairs:
         excess = r["rmse_holdout_before"] - r["rmse_holdout_clean"]
@@ -296,11 +314,12 @@ def counts(rows: list[dict]) -> dict:
     def share(sel):
         return [sum(found(r) for r in sel), len(sel)]
 
-    return {"singles": share(singles), "singles_not_absorbed": share(left),
+    return {"not_acting": [r["hidden"] for r in rows if hidden(r) != r["hidden"]],
+            "singles": share(singles), "singles_not_absorbed": share(left),
             "pairs": share(pairs), "pairs_not_absorbed": share(findable),
             "clean_files": len(clean),
             "added_on_clean": sum(len(effects_added(r)) for r in clean),
-            "not_hidden_added": sum(len(set(effects_added(r)) - set(r["hidden"]))
+            "not_hidden_added": sum(len(set(effects_added(r)) - set(hidden(r)))
                                     for r in rows),
             "base_model_changed": [sum(map(base_changed, rows)), len(rows)],
             "found_half_excess_removed": [sum(s >= 0.5 for s in removed), len(removed)],
@@ -318,16 +337,16 @@ def summarise_corner(rows: list[dict]) -> dict:
     files): how many, named first, absorbed, and what was named first instead."""
     r0 = rows[0]
     by_effect = {}
-    for h in dict.fromkeys(h for r in rows if len(r["hidden"]) == 1 for h in r["hidden"]):
-        sel = [r for r in rows if r["hidden"] == [h]]
+    for h in dict.fromkeys(h for r in rows if len(hidden(r)) == 1 for h in hidden(r)):
+        sel = [r for r in rows if hidden(r) == [h]]
         instead = [first_effect(r) or "nothing" for r in sel if not found(r)]
         by_effect[h] = {"files": len(sel), "named_first": sum(map(found, sel)),
                         "absorbed": sum(map(absorbed, sel)),
                         "instead": {n: instead.count(n) for n in sorted(set(instead))}}
     by_pair = {}
     for r in rows:
-        if len(r["hidden"]) == 2:
-            p = by_pair.setdefault(" + ".join(r["hidden"]), {"files": 0, "both_found": 0})
+        if len(hidden(r)) == 2:
+            p = by_pair.setdefault(" + ".join(hidden(r)), {"files": 0, "both_found": 0})
             p["files"] += 1
             p["both_found"] += found(r)
     truths = list(dict.fromkeys(r["truth"] for r in rows))
@@ -416,7 +435,9 @@ def print_table(rows: list[dict]) -> None:
     print(f"\n{'truth':<16} {'motion':<15} {'noise':>5} {'dt':>6}  {'hidden':<34} "
           f"{'added (in order)':<40} held-out RMSE before -> after, N; run not used")
     for r in rows:
-        ok = "ok" if (found(r) if r["hidden"] else not effects_added(r)) else "MISS"
+        ok = "ok" if (found(r) if hidden(r) else not effects_added(r)) else "MISS"
+        if hidden(r) != r["hidden"]:
+            ok += f" (acting: {' + '.join(hidden(r)) or 'none'})"
         if absorbed(r):
             ok += f" (absorbed: clean {r['rmse_holdout_clean']:.4f})"
         print(f"{r['truth']:<16} {motion(r):<15} {r['noise']:>5.2f} {r['dt'] * 1e3:>4.0f}ms  "

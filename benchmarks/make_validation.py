@@ -144,6 +144,13 @@ def _bench_command(c: dict) -> str:
     return "python benchmarks/diagnosis_bench.py " + " ".join(args) + " --out ROWS.json"
 
 
+def _not_acting(corners) -> str:
+    """The files whose hidden effects do not all act, named with their corner's motion."""
+    files = [f"{' + '.join(h)} on {c.get('motion', 'diagnosis')}" for c in corners
+             for h in c.get("not_acting", [])]
+    return f": {', '.join(files)}" if files else ""
+
+
 def section_diagnosis(d: dict) -> list[str]:
     corners = d["corners"]
     targets = d["targets"]
@@ -191,7 +198,9 @@ def section_diagnosis(d: dict) -> list[str]:
         "(the diagnosis motion or a family of `jaxfric.trajectories`). An effect is "
         "*absorbed* when it raises "
         f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
-        f"the same file without it. {files} files in {len(corners)} corners.",
+        f"the same file without it. A hidden effect that exerts no force on its file is "
+        f"not counted (the file hides the others){_not_acting(corners)}. "
+        f"{files} files in {len(corners)} corners.",
         goals_table(goals),
         "Per motion and truth: [Diagnose missing effects](diagnosis.md#how-well-it-works) "
         "(generated from the same JSON).",

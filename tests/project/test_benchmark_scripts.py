@@ -161,6 +161,18 @@ def test_diagnosis_bench_pairs_added_later_keep_the_seeds_of_the_first():
     assert {e for p in bench.PAIRS for e in p} == set(bench.SINGLES)
 
 
+def test_diagnosis_bench_counts_only_the_hidden_effects_that_act():
+    """A drag felt above 5 mm/s exerts no force on a sine sweep (top speed below 4 mm/s):
+    that file is clean in fact; on point-to-point moves (about 20 mm/s) it acts."""
+    bench = _bench()
+    case = {"truth": "two_state_power", "noise": 0.03, "dt": 0.01, "seed": 13,
+            "hidden": ["quadratic_drag", "drift"]}
+    slow = {**case, "options": {"motion": "sine_sweep", "duration": 5.0}}
+    fast = {**case, "options": {"motion": "point_to_point", "duration": 5.0}}
+    assert bench.acting_effects(slow) == ["drift"]
+    assert bench.acting_effects(fast) == ["quadratic_drag", "drift"]
+
+
 def _row(hidden, added, before=0.2, after=0.1, clean=0.1, truth="lugre", dt=0.01):
     return {"truth": truth, "noise": 0.03, "dt": dt, "start": "two-state",
             "hidden": list(hidden), "added": list(added),
@@ -180,6 +192,9 @@ def test_diagnosis_bench_summary_counts(tmp_path):
              _row(["offset", "drift"], ["drift", "offset", "cogging"])]
     first += [_row([], ["GMS 20 from the data"], truth="stiction"),  # not an effect
               _row(["drift"], ["GMS with 20 elements", "drift"], truth="stiction")]
+    first += [{**_row(["quadratic_drag"], [], truth="stiction"), "acting": []},  # clean
+              {**_row(["quadratic_drag", "offset"], ["offset"], truth="stiction"),
+               "acting": ["offset"]}]  # a single offset in fact, found
     later = [_row(["drift"], ["drift"], after=0.18)]  # re-run: found, 20 % removed
     other = [_row([], ["offset"], dt=0.005)]
     paths = []
@@ -194,13 +209,14 @@ def test_diagnosis_bench_summary_counts(tmp_path):
     out = bench.write_summary(summary, rows, runs)
     c10, c5 = out["corners"]
     assert (c10["dt_s"], c5["dt_s"], c5["added_on_clean"]) == (0.01, 0.005, 1)
-    assert c10["files"] == 8 and c10["singles"] == [3, 4]
-    assert c10["singles_not_absorbed"] == [3, 3]
-    assert c10["clean_files"] == 2 and c10["base_model_changed"] == [2, 8]
+    assert c10["files"] == 10 and c10["singles"] == [4, 5]
+    assert c10["singles_not_absorbed"] == [4, 4]
+    assert c10["clean_files"] == 3 and c10["base_model_changed"] == [2, 10]
+    assert c10["not_acting"] == [["quadratic_drag"], ["quadratic_drag", "offset"]]
     assert c10["pairs"] == [1, 2] and c10["pairs_not_absorbed"] == [1, 1]
     assert c10["added_on_clean"] == 0 and c10["not_hidden_added"] == 1
-    assert c10["found_half_excess_removed"] == [3, 4]  # 60 %, 100 %, 100 %, 20 %
-    assert c10["median_excess_removed"] == pytest.approx(0.8)
+    assert c10["found_half_excess_removed"] == [4, 5]  # 60 %, 100 %, 100 %, 100 %, 20 %
+    assert c10["median_excess_removed"] == pytest.approx(1.0)
     assert c10["by_effect"]["quadratic_drag"] == {"files": 1, "named_first": 0,
                                                   "absorbed": 1, "instead": {"nothing": 1}}
     assert c10["by_pair"]["offset + drift"] == {"files": 1, "both_found": 1}
