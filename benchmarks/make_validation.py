@@ -198,8 +198,8 @@ def section_diagnosis(d: dict) -> list[str]:
         "(the diagnosis motion or a family of `jaxfric.trajectories`). An effect is "
         "*absorbed* when it raises "
         f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
-        f"the same file without it. A hidden effect that exerts no force on its file is "
-        f"not counted (the file hides the others){_not_acting(corners)}. "
+        f"the same file without it. A hidden effect without force on its file is not "
+        f"counted{_not_acting(corners)}. "
         f"{files} files in {len(corners)} corners.",
         goals_table(goals),
         "Per motion and truth: [Diagnose missing effects](diagnosis.md#how-well-it-works) "
