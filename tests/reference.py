@@ -389,6 +389,7 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
     slipping = [False] * m
     F_out = np.zeros(N)
     Fi_out = np.zeros((N, m))
+    S_prev = 0.0
     for n in range(N):
         S_n = _effective_S(prep, n, Fs, Fc, Vs, delta)
         D_prev = int(D[n - 1]) if n > 0 else 0
@@ -405,9 +406,18 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
                 Fi[i] = target + (Fi[i] - target) * math.exp(-C * float(dts[n]) / abs(S_n))
             else:
                 # 3. sticking: spring; slip starts at the limit in the direction of motion
+                before = Fi[i]
                 Fi[i] = Fi[i] + k[i] * dx
                 if moving[n] and int(d[n]) * Fi[i] > nu[i] * abs(S_n):
-                    Fi[i] = nu[i] * S_n
+                    # the limit met at fraction theta of the sample (force and limit both
+                    # linear over it), slipping for the rest of it
+                    lim0, lim1 = nu[i] * abs(S_prev), nu[i] * abs(S_n)
+                    gap0, gap1 = lim0 - int(d[n]) * before, lim1 - int(d[n]) * Fi[i]
+                    theta = min(max(gap0 / (gap0 - gap1), 0.0), 1.0) if gap0 > 0 else 0.0
+                    met = int(d[n]) * (lim0 + theta * (lim1 - lim0))
+                    target = nu[i] * S_n
+                    Fi[i] = target + (met - target) * math.exp(
+                        -C * (1.0 - theta) * float(dts[n]) / abs(S_n))
                     slipping[i] = True
                 else:
                     # beyond the limit on the other side (|s| dropped): keeps sticking, but
@@ -420,6 +430,7 @@ def gms(t, x, v=None, *, Fs, Fc, Vs, delta, sigma2, C, nu, k):
             total += Fi[i]
             Fi_out[n, i] = Fi[i]
         F_out[n] = total + sigma2 * float(vs[n])
+        S_prev = S_n
     return {"F": F_out, "Fi": Fi_out}
 
 

@@ -15,12 +15,14 @@ from ._base import AbstractFrictionModel, SimResult
 
 
 class GMSState(eqx.Module):
-    """Element forces `F` (N), slip flags, last direction and previous position (m)."""
+    """Element forces `F` (N), slip flags, last direction, previous position (m) and the
+    previous sample's limit curve `S_prev` (N; 0 before the first sample)."""
 
     F: Float[Array, " N"]
     slipping: Bool[Array, " N"]
     last_d: Array
     x_prev: Array
+    S_prev: Array
 
 
 class GMS(AbstractFrictionModel):
@@ -80,21 +82,32 @@ class GMS(AbstractFrictionModel):
         k = jnp.diff(slopes, prepend=jnp.zeros((1,), slopes.dtype))
         return cls(stribeck=stribeck, sigma2=sigma2, C=C, nu=k * lb, k=k)
 
-    def _update(self, F, slipping, dx, s, d, same_direction, decay):
-        """One sample for all elements at once (docs/algorithm.md section 5, steps 1-3)."""
+    def _update(self, F, slipping, dx, s, d, same_direction, rate, s_prev):
+        """One sample for all elements at once (docs/algorithm.md section 5, steps 1-3);
+        `rate`: ``C*dt/|s|`` while moving (`_rate`), `s_prev`: the previous sample's S."""
         slipping = slipping & same_direction
         target = self.nu * s
-        f_slip = target + (F - target) * decay
+        f_slip = target + (F - target) * jnp.exp(-rate)
         f_stick = F + self.k * dx
         # Slip starts only at the limit in the direction of motion (Eq. 2); on the other
         # side an element may sit beyond nu*|s| after |s| dropped, and keeps sticking.
-        starts = (d != 0) & (d * f_stick > self.nu * jnp.abs(s))
+        limit = self.nu * jnp.abs(s)
+        starts = (d != 0) & (d * f_stick > limit)
+        # Where within the sample the limit was met: the force grows linearly over the
+        # sample, the limit moves linearly from nu*|S_prev|; from there the element slips
+        # for the rest of the sample. (Slipping from the sample's end instead makes the
+        # force jump with the parameters when the start moves by one sample.)
+        gap0 = self.nu * jnp.abs(s_prev) - d * F
+        theta = jnp.where(gap0 > 0, jnp.clip(safe_div(gap0, gap0 - (limit - d * f_stick)),
+                                             0.0, 1.0), 0.0)
+        met = d * (self.nu * jnp.abs(s_prev) + theta * (limit - self.nu * jnp.abs(s_prev)))
+        f_start = target + (met - target) * jnp.exp(-(1.0 - theta) * rate)
         cap = self.nu * jnp.maximum(self.stribeck.Fs, self.stribeck.Fc)
-        f_stick = jnp.where(starts, target, jnp.clip(f_stick, -cap, cap))
+        f_stick = jnp.where(starts, f_start, jnp.clip(f_stick, -cap, cap))
         return jnp.where(slipping, f_slip, f_stick), slipping | starts
 
-    def _decay(self, dt, s, moving):
-        return jnp.where(moving, jnp.exp(-self.C * safe_div(dt, jnp.abs(s))), 1.0)
+    def _rate(self, dt, s, moving):
+        return jnp.where(moving, self.C * safe_div(dt, jnp.abs(s)), 0.0)
 
     def init_state(self, x0: ArrayLike = 0.0) -> GMSState:
         x0 = jnp.asarray(x0, dtype=self.C.dtype)
@@ -103,6 +116,7 @@ class GMS(AbstractFrictionModel):
             slipping=jnp.zeros(self.nu.shape, bool),
             last_d=jnp.zeros((), x0.dtype),
             x_prev=x0,
+            S_prev=jnp.zeros((), x0.dtype),
         )
 
     def step(self, state: GMSState, x, v, dt):
@@ -114,9 +128,10 @@ class GMS(AbstractFrictionModel):
         last_d = jnp.where(moving, d, state.last_d)
         s = self.stribeck.effective(v, last_d)
         F, slipping = self._update(
-            state.F, state.slipping, x - state.x_prev, s, d, same, self._decay(dt, s, moving)
+            state.F, state.slipping, x - state.x_prev, s, d, same, self._rate(dt, s, moving),
+            state.S_prev,
         )
-        new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x)
+        new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x, S_prev=s)
         return new_state, jnp.sum(F) + self.sigma2 * v
 
     def _simulate(self, motion: Motion) -> SimResult:
@@ -124,14 +139,16 @@ class GMS(AbstractFrictionModel):
         s = self.stribeck.effective(motion.v, motion.last_d)
         moving = motion.moving
         same = moving & (motion.d == motion.prev_last_d)
-        decay = self._decay(motion.dt, s, moving)
+        rate = self._rate(motion.dt, s, moving)
+        s_prev = jnp.concatenate([jnp.zeros_like(s[:1]), s[:-1]])
 
         def body(carry, inp):
             F, slipping = self._update(*carry, *inp)
             return (F, slipping), jnp.sum(F)
 
         carry0 = (jnp.zeros_like(self.nu), jnp.zeros(self.nu.shape, bool))
-        _, elements = jax.lax.scan(body, carry0, (motion.dx, s, motion.d, same, decay))
+        _, elements = jax.lax.scan(body, carry0,
+                                   (motion.dx, s, motion.d, same, rate, s_prev))
         viscous = self.sigma2 * motion.v
         return SimResult(
             force=elements + viscous,

@@ -167,25 +167,32 @@ _GMS_HELPERS = """\
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
     v = jf_consistent(v, x - s->x_prev, dt);
-    double d = jf_sign(v), last_d, S, decay, dx = x - s->x_prev, sum = 0.0;
+    double d = jf_sign(v), last_d, S, rate, dx = x - s->x_prev, sum = 0.0;
     int moving = d != 0.0, same, i;
     same = moving && d == s->last_d;
     last_d = moving ? d : s->last_d;
     S = v != 0.0 ? jf_s(v) : JF_FS * last_d;
-    decay = moving ? exp(-JF_C * jf_div(dt, fabs(S))) : 1.0;
+    rate = moving ? JF_C * jf_div(dt, fabs(S)) : 0.0;
     for (i = 0; i < JF_NEL; ++i) {
         double target = JF_NU[i] * S, f_stick = s->F[i] + JF_KEL[i] * dx;
         double cap = JF_NU[i] * (JF_FS > JF_FC ? JF_FS : JF_FC);
+        double lim0 = JF_NU[i] * fabs(s->S_prev), lim1 = JF_NU[i] * fabs(S);
         int slipping = s->slipping[i] && same;
-        int starts = moving && d * f_stick > JF_NU[i] * fabs(S);
-        if (starts) f_stick = target;
+        int starts = moving && d * f_stick > lim1;
+        if (starts) { /* the limit met at fraction theta of the sample, slipping after */
+            double gap0 = lim0 - d * s->F[i], gap1 = lim1 - d * f_stick, theta = 0.0;
+            if (gap0 > 0.0) theta = fmin(fmax(jf_div(gap0, gap0 - gap1), 0.0), 1.0);
+            f_stick = target + (d * (lim0 + theta * (lim1 - lim0)) - target)
+                               * exp(-(1.0 - theta) * rate);
+        }
         else if (f_stick < -cap) f_stick = -cap;
         else if (f_stick > cap) f_stick = cap;
-        s->F[i] = slipping ? target + (s->F[i] - target) * decay : f_stick;
+        s->F[i] = slipping ? target + (s->F[i] - target) * exp(-rate) : f_stick;
         s->slipping[i] = slipping || starts;
         sum += s->F[i];
     }
     s->last_d = last_d;
+    s->S_prev = S;
     return sum + JF_SIGMA2 * v;
 }
 """
@@ -204,12 +211,13 @@ def _gms(model: GMS) -> Part:
     return Part(
         fields=[f"double F[{n}]; /* element forces [N] */",
                 f"int slipping[{n}]; /* element slip flags */",
-                "double last_d; /* direction of the last motion (-1, 0, 1) */"],
+                "double last_d; /* direction of the last motion (-1, 0, 1) */",
+                "double S_prev; /* the previous sample's limit curve S [N] */"],
         consts=part.consts + [const(model, "sigma2", "JF_SIGMA2", "model"),
                               const(model, "C", "JF_C", "model")],
         helpers=arrays + part.helpers + _GMS_HELPERS,
         init="    for (i = 0; i < JF_NEL; ++i) { s->F[i] = 0.0; s->slipping[i] = 0; }\n"
-             "    s->last_d = 0.0;\n",
+             "    s->last_d = 0.0;\n    s->S_prev = 0.0;\n",
     )
 
 

@@ -314,7 +314,11 @@ def _check_finite_differences(name, grads):
     for key, p in _named_leaves(model).items():
         g = grads[key]
         for index in np.ndindex(p.shape):
-            h = H_REL * abs(p[index])
+            # A leaf of little influence gets a longer step: the rounding error of the
+            # difference, ~eps*|loss|/h, is then at most RTOL of its derivative.
+            h_rel = max(H_REL, np.finfo(float).eps * value / (RTOL * abs(g[index] * p[index])
+                                                              + 1e-300))
+            h = h_rel * abs(p[index])
             assert h > 0, f"{key}{index} = 0: relative step impossible"
             plus = _perturbed(model, key, index, h)
             minus = _perturbed(model, key, index, -h)

@@ -21,8 +21,9 @@ def test_a_fold_fit_on_dwells_converges_far_from_the_bound():
     of its fourth fold, as a diagnosis's fold fit. With a velocity that flipped its sign on
     the dwells (`numpy.gradient`'s round-off, before `jaxfric.motion.central_difference`)
     this fit crept towards a step (``delta`` 690 to 3056 at its 150-step limit without the
-    bound). At rest now, it converges in under 100 steps with ``delta`` near 1.3, the same
-    fit with ``delta`` on a log scale and no bound (measured: 67 steps, 1.4273 N, both)."""
+    bound). At rest now, it ends by a rule of its own before its step limit with ``delta``
+    near 1.3 (measured: 126 steps, 1.4701 N, ``delta`` 1.330): at a kink of the two-state
+    model's cost, which it reports as such (not converged, and why)."""
     t, x, F = synthetic.measurement("gms_power", ("inertia",), dt=2e-3,
                                     motion="point_to_point", duration=30.0, noise=0.1)
     v, a = estimate_derivatives(t, x, "central", None)
@@ -31,7 +32,9 @@ def test_a_fold_fit_on_dwells_converges_far_from_the_bound():
     res = fitting.fit(start, t, x, F, v, a=a, weights=train, max_steps=150)
     delta = float(res.model.stribeck.delta)
     assert np.isfinite(delta) and delta < 0.1 * DELTA_MAX, (delta, res.stopped)
-    assert res.num_steps < 100 and "max_steps" not in res.stopped, res.stopped
+    assert res.num_steps < 150 and "max_steps" not in res.stopped, res.stopped
+    assert res.stop == "kink" and not bool(res.converged), res.stopped
+    assert "more than chance allows" in res.stopped, res.stopped
 
 
 def test_a_step_is_fitted_at_the_bound_with_the_error_near_the_noise():

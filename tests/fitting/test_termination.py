@@ -255,18 +255,18 @@ def _gms_point_to_point(seed: int):
     return t, x, F, float(np.sqrt(np.mean((clean - F) ** 2))), start
 
 
-def test_a_fit_stuck_at_a_kink_is_not_converged():
-    """GMS elements switching between sticking and slipping give the cost kinks. From this
-    start the fit ends where no step gains anything, with the linear model predicting
-    hundreds of noise variances left, far more than chance allows at an optimum; and the
-    fit is indeed stuck, its RMS error 9 % above the truth's (over a thousand noise
-    variances of cost). It is not converged (it used to report converged)."""
+def test_a_gms_fit_no_longer_sticks_at_a_slip_start():
+    """From this start the fit stuck where no step gained anything, 9 % above the truth's
+    RMS error, while slip started at a sample's end: the force jumped with the parameters
+    where a start moved by one sample (docs/algorithm.md section 5). With the start
+    interpolated within the sample it converges at the truth's error (as from every one of
+    40 such starts, measured). A fit that does stop at a kink says so:
+    tests/fitting/test_delta_bound.py."""
     t, x, F, floor, start = _gms_point_to_point(7)
     res = fitting.fit(start, t, x, F, max_steps=256)
-    assert float(res.rmse) > 1.05 * floor  # (stuck: the test is about saying so)
-    assert not bool(res.converged), res.stopped
-    assert "more than chance allows" in res.stopped, res.stopped
-    assert res.stop == "kink" and _converged(res)  # final for the diagnosis's rule
+    assert bool(res.converged), res.stopped
+    assert float(res.rmse) < 1.01 * floor
+    assert _converged(res)  # final for the diagnosis's rule
 
 
 def test_a_fit_at_a_kink_near_the_optimum_is_converged():
