@@ -481,8 +481,8 @@ def diagnose(
     if search_samples and n >= 2 * search_samples:  # the baseline, the copy's judge
         log(f"fitting the base model on all {n} samples ...")
         f = Fitter(full, fixed, max_steps, log)
-        starts = lag_starts(model, fixed)  # raced here, the winner the copy's start
-        won = f.race(starts, frozenset(range(len(getattr(model, "effects", ())))))[2]
+        won = f.race(starts := lag_starts(model, fixed),  # the winner starts the copy
+                     frozenset(range(len(getattr(model, "effects", ())))))[2]
         model = dict(starts).get(won, model)
         base_full, fit = f.last, f.last.fit_model
         tried = base_model_starts(base_models, fit)
