@@ -97,10 +97,11 @@ class GMS(AbstractFrictionModel):
         # sample, the limit moves linearly from nu*|S_prev|; from there the element slips
         # for the rest of the sample. (Slipping from the sample's end instead makes the
         # force jump with the parameters when the start moves by one sample.)
-        gap0 = self.nu * jnp.abs(s_prev) - d * F
+        limit0 = self.nu * jnp.abs(s_prev)
+        gap0 = limit0 - d * F
         theta = jnp.where(gap0 > 0, jnp.clip(safe_div(gap0, gap0 - (limit - d * f_stick)),
                                              0.0, 1.0), 0.0)
-        met = d * (self.nu * jnp.abs(s_prev) + theta * (limit - self.nu * jnp.abs(s_prev)))
+        met = d * (limit0 + theta * (limit - limit0))
         f_start = target + (met - target) * jnp.exp(-(1.0 - theta) * rate)
         cap = self.nu * jnp.maximum(self.stribeck.Fs, self.stribeck.Fc)
         f_stick = jnp.where(starts, f_start, jnp.clip(f_stick, -cap, cap))
