@@ -308,7 +308,8 @@ def undetermined_leaves(jac, resid, layout, n_obs: int, limit: float,
         norms = np.where(norms > 0, norms, 1.0)
         eig, vec = np.linalg.eigh((jf / norms).T @ (jf / norms))
         eig = np.maximum(eig, 1e-15 * max(float(eig.max()), 1e-300))
-        var = ((vec**2) / eig).sum(axis=1) / norms**2
+        with np.errstate(over="ignore"):  # an all-zero Jacobian: inf, undetermined
+            var = ((vec**2) / eig).sum(axis=1) / norms**2
         s2 = float(np.sum(resid**2)) / max(n_obs - cols.size, 1)
         se = np.sqrt(s2 * var)
         leaves = leaf_of[cols]

@@ -40,7 +40,7 @@ def default_cache_dir() -> Path:
 
 
 #: Programs that took at least this long to compile (s) are kept on disk (JAX: 1 s).
-MIN_COMPILE_S = 0.2
+MIN_COMPILE_S = 0.0
 
 
 def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | None:
@@ -51,9 +51,10 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
     shape and solver settings) loads it instead. This is JAX's persistent compilation
     cache (``jax_compilation_cache_dir``); JAX keys it by the program, the JAX version
     and the device. JAX stores by default only programs that took at least a second to
-    compile; here those of at least `MIN_COMPILE_S` are kept: a simulation or a fit's last
-    evaluation compiles in 0.5-1 s, and a diagnosis compiles a dozen of them
-    (`benchmarks/diagnose_speed.py`).
+    compile; here every program is kept (`MIN_COMPILE_S`): a diagnosis compiles dozens of
+    small ones (a simulation, a fit's last evaluation), which add up
+    (`benchmarks/diagnose_speed.py` measures a diagnosis with an empty and a filled
+    cache).
 
     `path`: the folder (created if missing). Without one: the environment variable
     ``JAXFRIC_CACHE_DIR`` if set (empty or ``0`` disables the cache), else
