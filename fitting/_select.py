@@ -45,10 +45,11 @@ the start kept.
    `DiagnosisRules.min_gain`), every fitted parameter is in
    its physical range (``param(..., physical=(lo, hi))``) and its fit on every sample
    ended by a rule of its own (`fitting._refits._converged`); of those that qualify, the
-   one with the largest held-out gain is added (``z`` decides whether an option
-   qualifies, the held-out error which is added: forward selection by cross-validated
-   error; an effect that predicts more of the held-out error is not pushed out by one
-   that predicts less, more evenly). Fold fits
+   one with the largest held-out gain is added, or of those the data do not tell apart
+   from it (their difference under `z` standard errors, `_between`) the one of fewest
+   added free coordinates (the one-standard-error rule, at `z`: forward selection by
+   cross-validated error, ties to the simpler; an effect that predicts more of the
+   held-out error is not pushed out by one that predicts less, more evenly). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -292,13 +293,6 @@ def _refit(fitter: Fitter, o: Option, current: Option, log, continued: bool = Tr
     _set(fitter, o, current)
 
 
-def _continue(fitter: Fitter, o: Option, current: Option) -> None:
-    """Continue `o`'s fit on every sample from where it stopped."""
-    o.unconverged = ""
-    o.fitted, o.pred = fitter.fit(o.fitted, o.on)
-    _set(fitter, o, current)
-
-
 def _set(fitter: Fitter, o: Option, current: Option) -> None:
     o.result = fitter.last
     o._note("fit on every sample", o.result)
@@ -314,9 +308,11 @@ def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
     for o in group:
         _refit(fitter, o, current, log, continued=len(group) == 1)
     kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
-    if kept.unconverged and len(group) > 1:
+    if kept.unconverged and len(group) > 1:  # continued from where it stopped
         log(f"  continuing {kept.name} ({kept.start}) ...")
-        _continue(fitter, kept, current)
+        kept.unconverged = ""
+        kept.fitted, kept.pred = fitter.fit(kept.fitted, kept.on)
+        _set(fitter, kept, current)
     return kept
 
 
@@ -380,7 +376,11 @@ def _cross_validate(fitter, current, options, folds, rules, log):
             and not o.physical and not o.unconverged]
     if not good:
         return None
-    chosen = max(good, key=lambda o: o.gain)
+    best = max(good, key=lambda o: o.gain)
+    # of those the data do not tell apart from the best, the one of fewest added coordinates
+    p = fitter.n_free(current.model, current.on)
+    chosen = min((o for o in good if o is best or _between(best, o) < rules.z),
+                 key=lambda o: (fitter.n_free(o.model, o.on) - p, -o.gain))
     chosen.ties = [(o.name, z) for o in good if o is not chosen
                    and (z := _between(chosen, o)) < rules.z]
     return chosen

@@ -52,6 +52,24 @@ def test_judge_block_statistic():
     assert same.gain < 0 and same.z < 2
 
 
+class _Judged:
+    """A fitter whose options' fold fits are already made (nothing to refit); each option
+    adds ``sizes[option.model]`` free coordinates (none without `sizes`)."""
+
+    def __init__(self, F, sizes=None):
+        n = F.size
+        self.data = C.Data(t=np.arange(n, dtype=float), x=np.zeros(n), v=np.zeros(n), F=F)
+        self.sizes = sizes
+
+    def cross_validate(self, option, folds, current=None):
+        pass
+
+    reference = cross_validate
+
+    def n_free(self, model, on):
+        return 10 + (0 if self.sizes is None or model is None else self.sizes[model])
+
+
 def test_significant_is_not_relevant():
     """An option that removes 0.8 % of every block's SSE, evenly: significant (z far above
     2) but not shown to remove `min_gain` (1 %), so it does not qualify; one removing 5 %
@@ -70,15 +88,7 @@ def test_significant_is_not_relevant():
     assert small.lower == pytest.approx(0.008)  # no spread: shown as measured
     assert small.lower < DiagnosisRules().min_gain <= large.lower
 
-    class _Fitter:  # the folds are already fitted: nothing to refit
-        data = C.Data(t=np.arange(n, dtype=float), x=np.zeros(n), v=np.zeros(n), F=F)
-
-        def cross_validate(self, option, folds, current=None):
-            pass
-
-        reference = cross_validate
-
-    fitter = _Fitter()
+    fitter = _Judged(F)
     rules = DiagnosisRules(blocks=20, folds=4)
     assert S._cross_validate(fitter, cur, [small], folds, rules, lambda *_: None) is None
     assert S._cross_validate(fitter, cur, [small, large], folds, rules,
@@ -103,19 +113,43 @@ def test_a_look_alike_that_predicts_as_well_is_named_with_the_one_added():
         o.fold_preds = [(1 - np.sqrt(1 - share)) * F + 0.05 * rng.standard_normal(n)] * 4
         return o
 
-    class _Fitter:
-        data = C.Data(t=np.arange(n, dtype=float), x=np.zeros(n), v=np.zeros(n), F=F)
-
-        def cross_validate(self, option, folds, current=None):
-            pass
-
-        reference = cross_validate
-
     rules = DiagnosisRules(blocks=20, folds=4)
     a, b, c = option("offset", 0.505), option("asymmetry", 0.5), option("cogging", 0.2)
-    chosen = S._cross_validate(_Fitter(), cur, [b, a, c], folds, rules, lambda *_: None)
+    chosen = S._cross_validate(_Judged(F), cur, [b, a, c], folds, rules, lambda *_: None)
     assert chosen is a
     assert [name for name, _ in a.ties] == ["asymmetry"] and a.ties[0][1] < rules.z
+
+
+def _looks_alike(gains, sizes, noise):
+    """`_cross_validate` over options removing the shares `gains` of every block's SSE
+    (with `noise` in their predictions), of `sizes` added free coordinates."""
+    n = 2000
+    rng = np.random.default_rng(5)
+    F = rng.standard_normal(n)
+    folds = S.time_block_folds(np.arange(n, dtype=float), 20, 4)
+    cur = R.Option(("base",), None, frozenset())
+    cur.fold_preds = [np.zeros(n)] * 4
+    options = []
+    for k, share in enumerate(gains):
+        o = R.Option((f"option {k}",), k, frozenset())
+        o.fold_preds = [(1 - np.sqrt(1 - share)) * F + noise * rng.standard_normal(n)] * 4
+        options.append(o)
+
+    chosen = S._cross_validate(_Judged(F, sizes), cur, options, folds,
+                               DiagnosisRules(blocks=20, folds=4), lambda *_: None)
+    return options.index(chosen), chosen
+
+
+def test_of_options_the_data_do_not_tell_apart_the_simpler_is_added():
+    """The one-standard-error rule at z: a richer option (36 added coordinates, a GMS for
+    a two-state model) that removes 50.5 % of every block's SSE and a simpler one (2)
+    that removes 50 %: the data do not tell them apart, and the simpler is added, the
+    richer named as a look-alike; where the richer removes clearly more (70 %), it is
+    added."""
+    k, chosen = _looks_alike([0.505, 0.5], [36, 2], noise=0.05)
+    assert k == 1 and [name for name, _ in chosen.ties] == ["option 0"]
+    k, chosen = _looks_alike([0.7, 0.5], [36, 2], noise=0.05)
+    assert k == 0 and chosen.ties == []
 
 
 def _judged(scale, keep):
