@@ -378,9 +378,9 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         return None
     best = max(good, key=lambda o: o.gain)
     # of those the data do not tell apart from the best, the one of fewest added coordinates
-    p = fitter.n_free(current.model, current.on)
-    chosen = min((o for o in good if o is best or _between(best, o) < rules.z),
-                 key=lambda o: (fitter.n_free(o.model, o.on) - p, -o.gain))
+    alike = [o for o in good if o is best or _between(best, o) < rules.z]
+    chosen = best if len(alike) == 1 else min(
+        alike, key=lambda o: (fitter.n_free(o.model, o.on), -o.gain))
     chosen.ties = [(o.name, z) for o in good if o is not chosen
                    and (z := _between(chosen, o)) < rules.z]
     return chosen
