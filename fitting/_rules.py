@@ -35,7 +35,10 @@ class DiagnosisRules:
       4.4 times the within-fold one, 1.5 by folds). 2.0 is a false-alarm rate of about
       2.5 % per candidate with independent blocks and at most about 7 % where the 4 fold
       sums decide (Student t, 3 degrees of freedom); the rule cross-validates only `tried`
-      candidates per round, and the effect must also be physical.
+      candidates per round, and the effect must also be physical. The same `z` says
+      which qualifying candidates the data do not tell apart from the best (their mean
+      block log ratio to it under `z` standard errors): of those, the one of fewest
+      added coordinates is added (the one-standard-error rule, at `z`).
     - `min_gain`: the share of the held-out SSE an effect must be shown to remove: its
       mean block log ratio, less `z` standard errors, must exceed
       ``log(1 / (1 - min_gain))`` (the one-sided test of `z`, against this margin
