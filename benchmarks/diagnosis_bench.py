@@ -209,13 +209,8 @@ def clean_holdout(case: dict, start) -> float:
     cross-validates its baseline (its search copy of a long record, blocks and folds):
     the error the baseline would have if nothing were missing."""
     import fitting
-    from fitting._diagnose import (
-        _record,
-        _search_copy,
-        base_model_starts,
-        default_base_models,
-        SEARCH_SAMPLES,
-    )
+    from fitting._base_options import base_model_starts, default_base_models
+    from fitting._diagnose import _record, _search_copy, SEARCH_SAMPLES
     from fitting._select import time_block_folds
 
     if not case["hidden"]:

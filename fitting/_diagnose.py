@@ -40,6 +40,7 @@ import jaxfric
 from jaxfric import effects as fx
 from jaxfric.motion import consistent_velocity
 
+from ._base_options import base_model_starts, default_base_models
 from ._candidates import _code, Candidate, Data
 from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
@@ -47,70 +48,15 @@ from ._diagnosis import Diagnosis, Step
 from ._params import leaf_names, to_fit_representation
 from ._per_run import per_run_values, run_model
 from ._plausibility import plausibility
-from ._refits import _replaced, Fitter, Option
+from ._refits import Fitter, Option
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
-from ._select import _base_starts, _blocks, held_out_sse, run_folds, select, time_block_folds
-from ._start import gms_like, initial_model, lag_starts
+from ._select import _blocks, held_out_sse, run_folds, select, time_block_folds
+from ._start import lag_starts
 
 
 #: A record of at least twice this many samples is searched on about this many.
 SEARCH_SAMPLES = 5_000
-
-
-#: The elements of the richer base model a diagnosis tries (`_richer`).
-GMS_ELEMENTS = 20
-
-
-def _richer(fallback):
-    """A start of the GMS option, as a function of the fitted plain model: a GMS with
-    `GMS_ELEMENTS` elements started where a fitted two-state model is
-    (`fitting._start.gms_like`: its presliding curve, Stribeck curve and lag), so its
-    refit starts where the fit is (and in the fit's optimum); for another family,
-    `fallback` (`_from_data`: read off the longest run)."""
-
-    def make(plain):
-        gms = gms_like(plain, GMS_ELEMENTS)
-        return gms if gms is not None else fallback(plain)
-
-    return make
-
-
-def _from_data(longest: Data):
-    """A start of the GMS option: a GMS with `GMS_ELEMENTS` elements read off the longest
-    run (`initial_model`, made once), whatever the fit is. A two-state fit in a poor
-    optimum (a frozen lag, a step-like Stribeck curve) hands that optimum to `gms_like`;
-    on point-to-point moves of a 60-element GMS truth the GMS refit from it ends at
-    1.43 N RMS, from the data at 0.26 N (noise 0.1 N)."""
-    made = []
-
-    def make(_plain):
-        if not made:
-            d = longest
-            made.append(initial_model("gms", d.t, d.x, d.F, d.v, n_elements=GMS_ELEMENTS))
-        return made[0]
-
-    return make
-
-
-def default_base_models(model, longest: Data) -> list[tuple[str, tuple]]:
-    """The base-model option a diagnosis of `model` tries by default: a GMS with
-    `GMS_ELEMENTS` elements, ``(name, starts)``; its starts ``(label, maker)``: read off
-    the data (`_from_data`) and, when that start exists (a two-state model), at the fit
-    (`_richer`). The rule keeps the better training fit of the two (`fitting._select`)."""
-    data = _from_data(longest)  # one start read off the data, made once, for both
-    starts = (("read off the data", data),)
-    if gms_like(model.without_effects(), GMS_ELEMENTS) is not None:
-        starts += (("started at the fit", _richer(data)),)
-    return [(f"GMS with {GMS_ELEMENTS} elements", starts)]
-
-
-def base_model_starts(base_models, fit) -> list[tuple[str, object]]:
-    """``[(name (label), model)]``: every start of the base models `base_models`
-    (`default_base_models`' form) made from `fit`, with its effects; the models the search
-    copy must carry (`_search_copy`)."""
-    return [(f"{name} ({label})", _replaced(start, fit)) for name, starts in base_models
-            for label, _, start in _base_starts(starts, None, fit.without_effects())]
 
 
 def _contained(model, fixed) -> set[str]:
@@ -471,7 +417,7 @@ def diagnose(
     if unknown:
         raise ValueError(f"fixed: {type(model).__name__} has no parameter(s) "
                          f"{sorted(unknown)}; it has {leaf_names(model)}")
-    base_models = (default_base_models(model, full.longest()) if base_models is None else
+    base_models = (default_base_models(model, full.longest(), fixed) if base_models is None else
                    [(name, starts if isinstance(starts, tuple) else (("as given", starts),))
                     for name, starts in base_models])
     if any(not starts for _, starts in base_models):

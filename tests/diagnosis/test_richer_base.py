@@ -92,8 +92,8 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     """A two-state fit in a poor optimum would hand it to `gms_like`; the GMS option has a
     second start read off the data (`default_base_models`), the better training fit kept.
     A GMS or Tustin base model has no start at the fit to lose, and gets the one."""
+    from fitting._base_options import default_base_models, GMS_ELEMENTS
     from fitting._candidates import Data
-    from fitting._diagnose import default_base_models, GMS_ELEMENTS
     from tests.fitting.test_fit_properties import _motion
 
     t, x = _motion()
@@ -102,23 +102,44 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
     ((name, starts),) = default_base_models(m + (fx.Offset(offset=0.5),), data)
     assert name == f"GMS with {GMS_ELEMENTS} elements"
-    assert [label for label, _ in starts] == ["read off the data", "started at the fit"]
+    assert [label for label, _ in starts] == ["read off the data",
+                                              "read off the data, fast lag",
+                                              "started at the fit"]
     fitted = eqx.tree_at(lambda m: m.C, m, np.float64(1e-3))  # a frozen lag
-    read, started = (make(fitted) for _, make in starts)
+    read, _, started = (make(fitted) for _, make in starts)
     assert float(started.C) == pytest.approx(1e-3)  # the fit's optimum, handed on
     assert isinstance(read, jaxfric.GMS) and read.nu.shape == (GMS_ELEMENTS,)
     assert float(read.C) != pytest.approx(1e-3)  # read off the data, whatever the fit
     assert read is starts[0][1](m)  # made once
     gms = gms_like(m, 5)
     ((_, starts),) = default_base_models(gms, data)
-    assert [label for label, _ in starts] == ["read off the data"]
+    assert [label for label, _ in starts] == ["read off the data",
+                                              "read off the data, fast lag"]
+
+
+def test_a_gms_read_off_the_data_with_a_slow_lag_also_starts_from_the_fast_lag():
+    """Read off the data, a GMS's lag comes from crude simulations; from a slow one its fit
+    can settle where the lag is a memory of the motion (a jerk-limited stiction file with
+    a mass and cogging: 1.72 N RMS, from the fast lag 0.63 N). Like the base fit
+    (`lag_starts`), the option also starts from the fastest lag of `LAG_TIMES`; a start
+    whose lag is that fast, or whose ``C`` is held, is that start itself (one fit)."""
+    from fitting._base_options import _fast_lag
+    from fitting._start import LAG_TIMES
+
+    slow = jaxfric.paper.gms5()  # C 10.8 N/s: a lag time Fs/C of 0.4 s
+    fast = _fast_lag(lambda plain: slow, ())(None)
+    assert float(fast.C) == pytest.approx(float(slow.stribeck.Fs) / min(LAG_TIMES))
+    assert float(slow.C) < float(fast.C)
+    assert eqx.tree_equal(eqx.tree_at(lambda g: g.C, fast, slow.C), slow)  # only C moved
+    assert _fast_lag(lambda plain: slow, ("C",))(None) is slow
+    assert _fast_lag(lambda plain: fast, ())(None) is fast
 
 
 def test_the_search_copy_carries_every_start_of_the_base_models():
     """The search copy of a long record must carry every model the search fits: each
     start of each base model, made from the fit, with the fit's effects."""
+    from fitting._base_options import base_model_starts, default_base_models, GMS_ELEMENTS
     from fitting._candidates import Data
-    from fitting._diagnose import base_model_starts, default_base_models, GMS_ELEMENTS
     from tests.fitting.test_fit_properties import _motion
 
     t, x = _motion()
@@ -127,7 +148,11 @@ def test_the_search_copy_carries_every_start_of_the_base_models():
     data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
     made = base_model_starts(default_base_models(m, data), m)
     name = f"GMS with {GMS_ELEMENTS} elements"
+    # the fast-lag start is the one read off the data where its lag is as fast (once)
+    ((_, starts),) = default_base_models(m, data)
+    fast = starts[1][1](m) is not starts[0][1](m)
     assert [n for n, _ in made] == [f"{name} (read off the data)",
+                                    *[f"{name} (read off the data, fast lag)"] * fast,
                                     f"{name} (started at the fit)"]
     assert all(isinstance(g.without_effects(), jaxfric.GMS) for _, g in made)
     assert all([e.name for e in g.effects] == ["offset"] for _, g in made)
