@@ -43,24 +43,29 @@ def _from_data(longest: Data):
     return make
 
 
-def _fast_lag(make, fixed):
+class _FastLag:
     """A start of the GMS option: `make`'s with the fast lag (`lag_starts`, as the base
-    fit's race; `make` itself where its lag is as fast or ``C`` is `fixed`). Read off the
+    fit's race; `make`'s itself where its lag is as fast or ``C`` is `fixed`). Read off the
     data a GMS's lag is set by crude simulations, and from a slow one the fit can settle
     where the lag is a memory of the motion: on a jerk-limited stiction file with a mass
     and cogging, 1.72 N RMS, from the fast lag 0.63 N."""
-    return lambda plain: lag_starts(make(plain), fixed)[-1][1]
+
+    def __init__(self, make, fixed):
+        self.make, self.fixed = make, tuple(fixed)
+
+    def __call__(self, plain):
+        return lag_starts(self.make(plain), self.fixed)[-1][1]
 
 
 def default_base_models(model, longest: Data, fixed=()) -> list[tuple[str, tuple]]:
     """The base-model option a diagnosis of `model` tries by default: a GMS with
     `GMS_ELEMENTS` elements, ``(name, starts)``; its starts ``(label, maker)``: read off
-    the data (`_from_data`), that with the fast lag (`_fast_lag`) and, when that start
+    the data (`_from_data`), that with the fast lag (`_FastLag`) and, when that start
     exists (a two-state model), at the fit (`_richer`). The rule keeps the best training
     fit (`fitting._select`)."""
     data = _from_data(longest)  # one start read off the data, made once, for all
     starts = (("read off the data", data), ("read off the data, fast lag",
-                                            _fast_lag(data, fixed)))
+                                            _FastLag(data, fixed)))
     if gms_like(model.without_effects(), GMS_ELEMENTS) is not None:
         starts += (("started at the fit", _richer(data)),)
     return [(f"GMS with {GMS_ELEMENTS} elements", starts)]
@@ -69,6 +74,10 @@ def default_base_models(model, longest: Data, fixed=()) -> list[tuple[str, tuple
 def base_model_starts(base_models, fit) -> list[tuple[str, object]]:
     """``[(name (label), model)]``: every start of the base models `base_models`
     (`default_base_models`' form) made from `fit`, with its effects; the models the search
-    copy must carry (`_search_copy`)."""
+    copy must carry (`_search_copy`). Not a fast-lag start (`_FastLag`): like the base
+    fit's own (the copy carries its race's winner), it is where a fit begins, not a model
+    the search compares; checked with it, the copy of a 1e5-sample record (the one of
+    `benchmarks/diagnose_speed.py`) grew from 9.7e3 to 3.4e4 samples."""
     return [(f"{name} ({label})", _replaced(start, fit)) for name, starts in base_models
-            for label, _, start in _base_starts(starts, None, fit.without_effects())]
+            for label, make, start in _base_starts(starts, None, fit.without_effects())
+            if not isinstance(make, _FastLag)]
