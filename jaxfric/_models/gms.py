@@ -136,8 +136,9 @@ class GMS(AbstractFrictionModel):
         new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x, S_prev=s)
         return new_state, jnp.sum(F) + self.sigma2 * v
 
-    def _element_forces(self, motion: Motion) -> Float[Array, "n N"]:
-        """Every element's force (N) at every sample of a `consistent` motion."""
+    def _element_forces(self, motion: Motion, each: bool = True) -> Array:
+        """Every element's force (N) at every sample of a `consistent` motion, shape
+        ``(n, N)``; not `each`: their sum, ``(n,)`` (the scan keeps no per-element force)."""
         s = self.stribeck.effective(motion.v, motion.last_d)
         moving = motion.moving
         same = moving & (motion.d == motion.prev_last_d)
@@ -146,7 +147,7 @@ class GMS(AbstractFrictionModel):
 
         def body(carry, inp):
             F, slipping = self._update(*carry, *inp)
-            return (F, slipping), F
+            return (F, slipping), F if each else jnp.sum(F)
 
         carry0 = (jnp.zeros_like(self.nu), jnp.zeros(self.nu.shape, bool))
         _, forces = jax.lax.scan(body, carry0, (motion.dx, s, motion.d, same, rate, s_prev))
@@ -173,7 +174,7 @@ def _without_own(tree):
 def _elements(model: GMS, motion: Motion):
     """The summed element force (N) per sample, `GMS._element_forces`, with a JVP that
     uses the elements' independence (`_elements_jvp`)."""
-    return jnp.sum(model._element_forces(motion), axis=-1)
+    return model._element_forces(motion, each=False)
 
 
 @_elements.def_jvp
@@ -183,16 +184,15 @@ def _elements_jvp(primals, tangents):
     # element's derivative with respect to its own, in one direction. So one forward pass
     # in 2 + (shared scalars) directions gives every column of the Jacobian, whatever the
     # caller asks for (a fit asks for 2 N + shared columns at once, each of which would
-    # carry all N elements through the scan: on 20 elements and 1e4 samples a fit's step
-    # takes a third of the time), and the caller's tangents are contracted with it. The
+    # carry all N elements through the scan: a fit of 20 elements on 1e4 samples takes a
+    # third to a half of the time), and the caller's tangents are contracted with it. The
     # arithmetic of each derivative is the plain JVP's (tests/core/test_gms_jvp.py).
     model, motion = primals
     t_model, t_motion = tangents
     if any(leaf is not None for leaf in jax.tree.leaves(t_motion, is_leaf=lambda x: x is None)):
         # the motion is differentiated too (with respect to the positions): the plain JVP
-        return jax.jvp(lambda m, mo: jnp.sum(m._element_forces(mo), axis=-1),
-                       (model, motion), (_zeros_for(model, t_model),
-                                         _zeros_for(motion, t_motion)))
+        return jax.jvp(lambda m, mo: m._element_forces(mo, each=False), (model, motion),
+                       (_zeros_for(model, t_model), _zeros_for(motion, t_motion)))
     params, static = eqx.partition(model, eqx.is_inexact_array)
     shared, unravel = jax.flatten_util.ravel_pytree(_without_own(params))
 
