@@ -37,8 +37,8 @@ class DiagnosisRules:
       sums decide (Student t, 3 degrees of freedom); the rule cross-validates only `tried`
       candidates per round, and the effect must also be physical. The same `z` says
       which qualifying candidates the data do not tell apart from the best (their mean
-      block log ratio to it under `z` standard errors): of those, the one of fewest
-      added coordinates is added (the one-standard-error rule, at `z`).
+      block log ratio to it under `z` standard errors): where the best is a base-model
+      change, such an effect is added instead (`fitting._select`).
     - `min_gain`: the share of the held-out SSE an effect must be shown to remove: its
       mean block log ratio, less `z` standard errors, must exceed
       ``log(1 / (1 - min_gain))`` (the one-sided test of `z`, against this margin

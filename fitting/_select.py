@@ -45,11 +45,12 @@ the start kept.
    `DiagnosisRules.min_gain`), every fitted parameter is in
    its physical range (``param(..., physical=(lo, hi))``) and its fit on every sample
    ended by a rule of its own (`fitting._refits._converged`); of those that qualify, the
-   one with the largest held-out gain is added, or of those the data do not tell apart
-   from it (their difference under `z` standard errors, `_between`) the one of fewest
-   added free coordinates (the one-standard-error rule, at `z`: forward selection by
-   cross-validated error, ties to the simpler; an effect that predicts more of the
-   held-out error is not pushed out by one that predicts less, more evenly). Fold fits
+   one with the largest held-out gain is added, but where it is a base-model change, an
+   effect the data do not tell apart from it (their difference under `z` standard
+   errors, `_between`) comes first: a richer base model can stand in for any effect, so
+   the effect is the more specific finding the data support as well. Between effects,
+   the larger gain decides (a count of one or two coordinates says nothing of which is
+   right: an offset that stands in for a joint's gravity load). Fold fits
    are compared at equal effort (`Fitter.reference`); one stopped at its step limit is
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
@@ -377,10 +378,9 @@ def _cross_validate(fitter, current, options, folds, rules, log):
     if not good:
         return None
     best = max(good, key=lambda o: o.gain)
-    # of those the data do not tell apart from the best, the one of fewest added coordinates
+    # of those the data do not tell apart from the best, an effect before a base change
     alike = [o for o in good if o is best or _between(best, o) < rules.z]
-    chosen = best if len(alike) == 1 else min(
-        alike, key=lambda o: (fitter.n_free(o.model, o.on), -o.gain))
+    chosen = max(alike, key=lambda o: (not o.base, o.gain))
     chosen.ties = [(o.name, z) for o in good if o is not chosen
                    and (z := _between(chosen, o)) < rules.z]
     return chosen

@@ -97,9 +97,10 @@ def test_significant_is_not_relevant():
                              DiagnosisRules(min_gain=0.0), lambda *_: None) is small
 
 
-def _looks_alike(gains, sizes, noise):
+def _looks_alike(gains, sizes, noise, base=None):
     """`_cross_validate` over options removing the shares `gains` of every block's SSE
-    (with `noise` in their predictions), of `sizes` added free coordinates."""
+    (with `noise` in their predictions), of `sizes` added free coordinates; `base[k]`:
+    option k is a base-model change."""
     n = 2000
     rng = np.random.default_rng(5)
     F = rng.standard_normal(n)
@@ -108,7 +109,7 @@ def _looks_alike(gains, sizes, noise):
     cur.fold_preds = [np.zeros(n)] * 4
     options = []
     for k, share in enumerate(gains):
-        o = R.Option((f"option {k}",), k, frozenset())
+        o = R.Option((f"option {k}",), k, frozenset(), base=bool(base and base[k]))
         o.fold_preds = [(1 - np.sqrt(1 - share)) * F + noise * rng.standard_normal(n)] * 4
         options.append(o)
 
@@ -128,16 +129,23 @@ def test_a_look_alike_that_predicts_as_well_is_named_with_the_one_added():
     assert chosen.ties[0][1] < DiagnosisRules().z
 
 
-def test_of_options_the_data_do_not_tell_apart_the_simpler_is_added():
-    """The one-standard-error rule at z: a richer option (36 added coordinates, a GMS for
-    a two-state model) that removes 50.5 % of every block's SSE and a simpler one (2)
-    that removes 50 %: the data do not tell them apart, and the simpler is added, the
-    richer named as a look-alike; where the richer removes clearly more (70 %), it is
-    added."""
-    k, chosen = _looks_alike([0.505, 0.5], [36, 2], noise=0.05)
+def test_an_effect_the_data_do_not_tell_apart_from_a_base_model_change_is_added():
+    """A base-model change (36 added coordinates, a GMS for a two-state model) that
+    removes 50.5 % of every block's SSE and an effect (2) that removes 50 %: the data do
+    not tell them apart, and the effect is added, the base-model change named as a
+    look-alike; where the base-model change removes clearly more (70 %), it is added."""
+    k, chosen = _looks_alike([0.505, 0.5], [36, 2], noise=0.05, base=[True, False])
     assert k == 1 and [name for name, _ in chosen.ties] == ["option 0"]
-    k, chosen = _looks_alike([0.7, 0.5], [36, 2], noise=0.05)
+    k, chosen = _looks_alike([0.7, 0.5], [36, 2], noise=0.05, base=[True, False])
     assert k == 0 and chosen.ties == []
+
+
+def test_between_effects_the_larger_gain_is_added_whatever_their_size():
+    """Two effects the data do not tell apart, a gravity load (2 coordinates) removing
+    50.5 % of every block's SSE and an offset (1) removing 50 %: the larger gain is added,
+    the other named as a look-alike."""
+    k, chosen = _looks_alike([0.505, 0.5], [2, 1], noise=0.05)
+    assert k == 0 and [name for name, _ in chosen.ties] == ["option 1"]
 
 
 def _judged(scale, keep):
