@@ -120,11 +120,18 @@ def test_sigterm_during_a_fit_cleans_up_and_writes_nothing(measurement, tmp_path
          "--elements", "10", "--json", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "JAXFRIC_CACHE_DIR": ""})
-    line = proc.stdout.readline()  # the first line comes after loading, before the fit
-    assert "samples" in line, line
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
+    try:  # the file's line ("N samples over ...") comes after loading, before the fit
+        lines = [proc.stdout.readline()]
+        while lines[-1] and "samples" not in lines[-1] and len(lines) < 5:
+            lines.append(proc.stdout.readline())
+        assert "samples" in lines[-1], lines
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
     assert proc.returncode == 143, err
     assert "terminated" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.csv"]
