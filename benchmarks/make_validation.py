@@ -192,10 +192,9 @@ def section_diagnosis(d: dict) -> list[str]:
     hours = sum(r.get("seconds") or 0 for r in runs) / 3600
     return [
         "`jaxfric diagnose` on synthetic measurements from truths that are not the fitted "
-        "model (a power-law GMS, a stiff LuGre, a power-shape two-state model, true "
-        "stiction), with a 0.05 um encoder, force noise, and one hidden effect, a pair or "
-        "none. A *corner* is one sampling interval, noise level, starting model and motion "
-        "(the diagnosis motion or a family of `jaxfric.trajectories`). An effect is "
+        f"model ({', '.join(sorted({t for c in corners for t in c['truths']}))}), with a "
+        "0.05 um encoder, force noise, and one hidden effect, a pair or none. A *corner* is "
+        "one sampling interval, noise level, start and motion. An effect is "
         "*absorbed* when it raises "
         f"the baseline's held-out error by less than {100 * d['absorbed_below']:.0f} % over "
         f"the same file without it. A hidden effect without force on its file is not "
