@@ -16,7 +16,8 @@ used when ``2 |a| <= ACCEL_RATIO * |v|`` (the correction is small against the st
 the expansion holds), ``v`` alone otherwise. The trust region's ratio compares the cost
 the step achieves with the decrease the linear model predicts for ``v``: the acceleration
 is what makes the prediction come true along the curve. Everything else (the trust
-region, its update, optimistix's own termination test) is as in
+region, its update, optimistix's own termination test, the damped step: `fitting._descent`
+computes optimistix's from one QR decomposition per point) is as in
 ``optx.LevenbergMarquardt`` with `search`.
 """
 
@@ -30,6 +31,8 @@ import jax.numpy as jnp
 import lineax as lx
 import optimistix as optx
 from jaxtyping import Array, PyTree, Scalar
+
+from ._descent import QRDampedNewtonDescent
 
 
 #: The finite-difference step of ``r_vv``, as a fraction of ``v`` (Transtrum's 0.1).
@@ -85,16 +88,16 @@ def _sum_squares(tree) -> Array:
 
 
 class GeodesicLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
-    """Levenberg-Marquardt (``optx.DampedNewtonDescent`` with QR, the trust region
-    `search`) whose evaluated step adds half the geodesic acceleration (module
-    docstring). `rtol`, `atol`, `norm`: optimistix's termination test, as for
-    ``optx.LevenbergMarquardt``."""
+    """Levenberg-Marquardt (the damped Gauss-Newton step of `fitting._descent`, one QR
+    decomposition of the Jacobian per accepted point; the trust region `search`) whose
+    evaluated step adds half the geodesic acceleration (module docstring). `rtol`,
+    `atol`, `norm`: optimistix's termination test, as for ``optx.LevenbergMarquardt``."""
 
     rtol: float
     atol: float
     norm: Callable[[PyTree], Scalar]
     search: optx.ClassicalTrustRegion
-    descent: optx.DampedNewtonDescent = optx.DampedNewtonDescent(linear_solver=lx.QR())
+    descent: QRDampedNewtonDescent = QRDampedNewtonDescent()
     verbose: Callable[..., None] = _quiet
     accelerate: bool = eqx.field(static=True, default=True)
 
@@ -151,9 +154,8 @@ class GeodesicLevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         jv = f_info.jac.mv(v)
         rvv = jax.tree.map(lambda a, b, c: (2.0 / FD_STEP) * ((a - b) / FD_STEP - c),
                            r_h, f_info.residual, jv)
-        curved = optx.FunctionInfo.ResidualJac(rvv, f_info.jac)
-        accel, _ = self.descent.step(step_size, self.descent.query(y, curved,
-                                                                   descent_state))
+        accel, _ = self.descent.step(step_size, self.descent.with_residual(descent_state,
+                                                                           rvv))
         size = jnp.linalg.norm(v)
         use = (2.0 * jnp.linalg.norm(accel) <= ACCEL_RATIO * size) & (size > 0) & jnp.all(
             jnp.isfinite(accel))

@@ -95,11 +95,18 @@ def decrease_left(jac, resid, mask, n_obs, undetermined):
     are undetermined (module docstring). `jac` is ``d resid / d y`` (any column scaling of
     the determined part gives the same value; the undetermined test reads ``y``'s units)."""
     jf = jac * mask
+    return _decrease_left(jf.T @ jf, jf.T @ resid, jnp.sum(resid**2), mask, n_obs,
+                          undetermined)
+
+
+def _decrease_left(gram, jtr, rss, mask, n_obs, undetermined):
+    """`decrease_left` from ``J^T J`` and ``J^T resid`` of the masked Jacobian and the sum
+    of squared residuals (p x p and p numbers: from a QR factor, `Stopping.terminate`)."""
     n_free = jnp.sum(mask)
-    s2 = jnp.sum(resid**2) / jnp.maximum(n_obs - n_free, 1.0)
-    a = jf.T @ jf + jnp.diag(1.0 - mask)
+    s2 = rss / jnp.maximum(n_obs - n_free, 1.0)
+    a = gram + jnp.diag(1.0 - mask)
     eig, vec = jnp.linalg.eigh(a)
-    proj = vec.T @ (jf.T @ resid)
+    proj = vec.T @ jtr
     determined = (eig > 0) & (eig * undetermined**2 >= s2)
     pred = 0.5 * jnp.sum(jnp.where(determined, proj**2 / jnp.where(determined, eig, 1.0),
                                    0.0))
@@ -167,16 +174,23 @@ class Stopping(optx.AbstractLeastSquaresSolver):
         if isinstance(f_info, optx.FunctionInfo.ResidualJac):
             # After the first step the state holds the residual and Jacobian at the last
             # accepted point (before it, zeros: `count` guards that).
-            jac = f_info.jac.as_matrix() / self.inv_d
             resid = f_info.residual.ravel()
-            ratio, _ = decrease_left(jac, resid, self.mask, self.n_obs, self.undetermined)
+            factor = _qr_factor(inner)
+            if factor is None:  # J itself (n x p)
+                jz = f_info.jac.as_matrix()
+                ratio, _ = decrease_left(jz / self.inv_d, resid, self.mask, self.n_obs,
+                                         self.undetermined)
+            else:  # J = Q R at that point: J^T J = R^T R, J^T r = R^T Q^T r, |J dz| = |R dz|
+                jz, qtr = factor
+                jf = jz / self.inv_d * self.mask
+                ratio, _ = _decrease_left(jf.T @ jf, jf.T @ qtr, jnp.sum(resid**2), self.mask,
+                                          self.n_obs, self.undetermined)
             s2 = self.noise_variance(resid)
             # The ring's oldest entry (the next to be overwritten) is the cost
             # STALL_STEPS - 1 steps ago; the newest is now.
             achieved = costs[count % STALL_STEPS] - 0.5 * jnp.sum(resid**2)
             stalled = (self.decrease > 0) & (achieved <= self.decrease * s2)
-            still = (self.decrease > 0) & (self.moved(state, f_info.jac.as_matrix(), resid)
-                                           <= 2.0 * self.decrease)
+            still = (self.decrease > 0) & (self.moved(state, jz, resid) <= 2.0 * self.decrease)
             settled = (count >= 1) & ((ratio <= self.decrease) | stalled | still)
         return done | settled | (count >= self.budget), result
 
@@ -188,7 +202,8 @@ class Stopping(optx.AbstractLeastSquaresSolver):
         """The squared length, in standard errors, of the move over the last
         `STALL_STEPS` - 1 steps of `state` (inf if fewer were taken): ``|J dz|^2 / s^2``
         over the free coordinates, `jac` being ``d resid / d z`` at the last point (the
-        settle rule, module docstring). The points are the ring's (optimistix passes
+        settle rule, module docstring; `jac` may be its QR factor R instead: the same
+        length). The points are the ring's (optimistix passes
         `terminate` the point before the step, with the state after it)."""
         _, count, _, points = state
         s2 = self.noise_variance(resid)
@@ -208,6 +223,15 @@ class Stopping(optx.AbstractLeastSquaresSolver):
 
     def postprocess(self, fn, y, aux, args, options, state, tags, result):
         return self.solver.postprocess(fn, y, aux, args, options, state[0], tags, result)
+
+
+def _qr_factor(inner):
+    """``(R, Q^T resid)`` of the Jacobian at the solver state `inner`'s last accepted
+    point, where its descent keeps them (`fitting._descent`), else None."""
+    ds = getattr(inner, "descent_state", None)
+    if ds is None or not hasattr(ds, "r"):
+        return None
+    return ds.r, ds.qtr
 
 
 #: The stall rule (achieved): the fit also stops when the last `STALL_STEPS` steps together
