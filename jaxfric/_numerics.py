@@ -4,6 +4,7 @@ Each uses the double-``where`` pattern (optax ``safe_norm``): the unsafe branch 
 harmless value where it would be singular, so that its (discarded) gradient is finite too.
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jax.custom_derivatives import SymbolicZero
@@ -124,3 +125,11 @@ def running_sum(a: ArrayLike) -> Array:
         return c, c
 
     return jax.lax.scan(body, jnp.zeros(a.shape[1:], a.dtype), a)[1]
+
+
+def tangent_zeros(primal, tangent):
+    """`tangent` (a custom JVP rule's, None for an unperturbed leaf) with every None of an
+    inexact array of `primal` replaced by zeros shaped like it."""
+    params = eqx.filter(primal, eqx.is_inexact_array)
+    return jax.tree.map(lambda p, t: t if p is None or t is not None else jnp.zeros_like(p),
+                        params, tangent, is_leaf=lambda x: x is None)

@@ -1,6 +1,6 @@
-"""The two-state model's compiled CPU kernels, called through the XLA FFI.
+"""jaxfric's compiled CPU kernels, called through the XLA FFI.
 
-Three handlers, compiled together into one shared library from the C++ sources shipped
+Five handlers, compiled together into one shared library from the C++ sources shipped
 with the package (`SOURCES`):
 
 * `events.cc`, the event pass: the event loop of ``jaxfric._models.two_state`` as one C++
@@ -12,6 +12,9 @@ with the package (`SOURCES`):
   with respect to the parameters; `jaxfric._kernel.forward` wraps them in a custom JVP
   (tests/core/test_forward_kernel.py). Its exponentials and logarithms are vectorised a
   block of samples at a time (`vmath.h`).
+* `gms.cc`, the N-element GMS's element recursion (`jaxfric._models.gms`), and the same
+  loop with every element's derivatives with respect to its own parameters and to the
+  shared ones (`jaxfric._kernel.gms`; tests/core/test_gms_kernel.py).
 
 The library is compiled on first use with the system C++ compiler (``$CXX``, else ``c++``,
 ``g++`` or ``clang++``) into a cache folder (``$JAXFRIC_CACHE_DIR``, else
@@ -59,8 +62,12 @@ FORWARD_TARGET = "jaxfric_forward_pass"
 FORWARD_SYMBOL = "JaxfricForwardPass"
 FORWARD_JACOBIAN_TARGET = "jaxfric_forward_jacobian"
 FORWARD_JACOBIAN_SYMBOL = "JaxfricForwardJacobian"
+GMS_TARGET = "jaxfric_gms_elements"
+GMS_SYMBOL = "JaxfricGmsElements"
+GMS_JACOBIAN_TARGET = "jaxfric_gms_jacobian"
+GMS_JACOBIAN_SYMBOL = "JaxfricGmsJacobian"
 #: The sources compiled into one shared library (the .cc files) and the header they share.
-SOURCES = ("events.cc", "forward.cc", "rows.h", "stack.h", "dual.h", "vmath.h", "shape.h")
+SOURCES = ("events.cc", "forward.cc", "gms.cc", "rows.h", "stack.h", "dual.h", "vmath.h", "shape.h")
 #: -fno-trapping-math (floating-point exceptions are never enabled) lets the compiler turn the
 #: selects of the vectorised loops into SIMD code (vmath.h); values are unchanged.
 FLAGS = ("-O3", "-std=c++17", "-fno-trapping-math", "-shared", "-fPIC", "-pthread", "-w")
@@ -184,7 +191,9 @@ def _register() -> None:
     library = build()
     lib = ctypes.cdll.LoadLibrary(str(library))
     for target, symbol in ((TARGET, SYMBOL), (FORWARD_TARGET, FORWARD_SYMBOL),
-                           (FORWARD_JACOBIAN_TARGET, FORWARD_JACOBIAN_SYMBOL)):
+                           (FORWARD_JACOBIAN_TARGET, FORWARD_JACOBIAN_SYMBOL),
+                           (GMS_TARGET, GMS_SYMBOL),
+                           (GMS_JACOBIAN_TARGET, GMS_JACOBIAN_SYMBOL)):
         jax.ffi.register_ffi_target(target, jax.ffi.pycapsule(getattr(lib, symbol)),
                                     platform="cpu")
     _state["lib"] = lib  # keep it loaded

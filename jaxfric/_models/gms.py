@@ -8,7 +8,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._fields import param
-from .._numerics import safe_div
+from .._kernel import gms as kernel_gms
+from .._numerics import safe_div, tangent_zeros
 from .._shapes import AbstractShape
 from .._stribeck import Stribeck
 from ..motion import consistent_velocity, Motion
@@ -136,14 +137,23 @@ class GMS(AbstractFrictionModel):
         new_state = GMSState(F=F, slipping=slipping, last_d=last_d, x_prev=x, S_prev=s)
         return new_state, jnp.sum(F) + self.sigma2 * v
 
-    def _element_forces(self, motion: Motion, each: bool = True) -> Array:
-        """Every element's force (N) at every sample of a `consistent` motion, shape
-        ``(n, N)``; not `each`: their sum, ``(n,)`` (the scan keeps no per-element force)."""
+    def _inputs(self, motion: Motion):
+        """The smooth per-sample inputs of the element recursion of a `consistent` motion:
+        the Stribeck value ``s`` (N), the rate ``C*dt/|s|`` while moving, ``s`` of the
+        sample before (0 before the first), whether the sample moves in the direction of
+        the one before, and the cap factor (an element's cap is ``nu_i`` times it)."""
         s = self.stribeck.effective(motion.v, motion.last_d)
         moving = motion.moving
         same = moving & (motion.d == motion.prev_last_d)
         rate = self._rate(motion.dt, s, moving)
         s_prev = jnp.concatenate([jnp.zeros_like(s[:1]), s[:-1]])
+        return s, rate, s_prev, same, jnp.maximum(self.stribeck.Fs, self.stribeck.Fc)
+
+    def _element_forces(self, motion: Motion, each: bool = True) -> Array:
+        """Every element's force (N) at every sample of a `consistent` motion, shape
+        ``(n, N)``; not `each`: their sum, ``(n,)`` (the scan keeps no per-element force).
+        The scan in JAX (the kernel's reference, `jaxfric._kernel.gms`)."""
+        s, rate, s_prev, same, _ = self._inputs(motion)
 
         def body(carry, inp):
             F, slipping = self._update(*carry, *inp)
@@ -170,10 +180,20 @@ def _without_own(tree):
                        is_leaf=lambda x: x is None)
 
 
+def _on_kernel(model: GMS, motion: Motion) -> bool:
+    return kernel_gms.supported(motion.x, motion.dx, model.nu, model.k, model.C,
+                                *jax.tree.leaves(eqx.filter(model.stribeck, eqx.is_array)))
+
+
 @eqx.filter_custom_jvp
 def _elements(model: GMS, motion: Motion):
-    """The summed element force (N) per sample, `GMS._element_forces`, with a JVP that
-    uses the elements' independence (`_elements_jvp`)."""
+    """The summed element force (N) per sample, `GMS._element_forces` (in the compiled
+    kernel where it runs, `jaxfric._kernel.gms`), with a JVP that uses the elements'
+    independence (`_elements_jvp`)."""
+    if _on_kernel(model, motion):
+        s, rate, s_prev, same, capf = model._inputs(motion)
+        return kernel_gms.elements(motion.dx, s, motion.d, same, rate, s_prev, model.nu,
+                                   model.k, capf)
     return model._element_forces(motion, each=False)
 
 
@@ -186,20 +206,40 @@ def _elements_jvp(primals, tangents):
     # caller asks for (a fit asks for 2 N + shared columns at once, each of which would
     # carry all N elements through the scan: a fit of 20 elements on 1e4 samples takes a
     # third to a half of the time), and the caller's tangents are contracted with it. The
-    # arithmetic of each derivative is the plain JVP's (tests/core/test_gms_jvp.py).
+    # arithmetic of each derivative is the plain JVP's (tests/core/test_gms_jvp.py); in the
+    # kernel, the shared directions enter as the tangents of the smooth per-sample inputs,
+    # computed here (tests/core/test_gms_kernel.py).
     model, motion = primals
     t_model, t_motion = tangents
     if any(leaf is not None for leaf in jax.tree.leaves(t_motion, is_leaf=lambda x: x is None)):
         # the motion is differentiated too (with respect to the positions): the plain JVP
         return jax.jvp(lambda m, mo: m._element_forces(mo, each=False), (model, motion),
-                       (_zeros_for(model, t_model), _zeros_for(motion, t_motion)))
+                       (tangent_zeros(model, t_model), tangent_zeros(motion, t_motion)))
     params, static = eqx.partition(model, eqx.is_inexact_array)
     shared, unravel = jax.flatten_util.ravel_pytree(_without_own(params))
 
-    def forces(vec, nu, k):
+    def with_shared(vec, nu, k):
         own = eqx.tree_at(lambda p: (p.nu, p.k), unravel(vec), (nu, k),
                           is_leaf=lambda x: x is None)
-        return eqx.combine(own, static)._element_forces(motion)
+        return eqx.combine(own, static)
+
+    t_p = tangent_zeros(model, t_model)
+    t_shared = jax.flatten_util.ravel_pytree(_without_own(t_p))[0]
+    if _on_kernel(model, motion):
+        def smooth(vec):
+            s, rate, s_prev, _, capf = with_shared(vec, model.nu, model.k)._inputs(motion)
+            return s, rate, s_prev, capf
+
+        s, rate, s_prev, capf = smooth(shared)
+        ds, drate, ds_prev, dcapf = jax.jacfwd(smooth)(shared)
+        same = model._inputs(motion)[3]
+        out, jac_nu, jac_k, jac_shared = kernel_gms.jacobian(
+            motion.dx, s, motion.d, same, rate, s_prev, model.nu, model.k, capf, ds, drate,
+            ds_prev, dcapf)
+        return out, jac_nu @ t_p.nu + jac_k @ t_p.k + jac_shared @ t_shared
+
+    def forces(vec, nu, k):
+        return with_shared(vec, nu, k)._element_forces(motion)
 
     n_dir = 2 + shared.size
     directions = (jnp.eye(n_dir, dtype=shared.dtype)[:, 2:],  # shared, one by one
@@ -207,14 +247,5 @@ def _elements_jvp(primals, tangents):
                   jnp.zeros((n_dir,) + model.k.shape, model.k.dtype).at[1].set(1.0))
     out, jac = jax.vmap(lambda *d: jax.jvp(forces, (shared, model.nu, model.k), d),
                         out_axes=(None, 0))(*directions)  # jac: (directions, n, N)
-    t_p = _zeros_for(model, t_model)
-    t_shared = jax.flatten_util.ravel_pytree(_without_own(t_p))[0]
     tangent = jac[0] @ t_p.nu + jac[1] @ t_p.k + jnp.sum(jac[2:], axis=-1).T @ t_shared
     return jnp.sum(out, axis=-1), tangent
-
-
-def _zeros_for(primal, tangent):
-    """`tangent` with its symbolic zeros (None) as zeros shaped like `primal`'s arrays."""
-    params = eqx.filter(primal, eqx.is_inexact_array)
-    return jax.tree.map(lambda p, t: t if p is None or t is not None else jnp.zeros_like(p),
-                        params, tangent, is_leaf=lambda x: x is None)
