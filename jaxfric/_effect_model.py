@@ -4,14 +4,16 @@ every effect (`AbstractEffect`), and a model plus effects (`WithEffects`, ``mode
 """
 
 import abc
+import dataclasses
 from typing import Any, ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from ._models._base import AbstractFrictionModel, SimResult
-from ._numerics import safe_div
+from ._numerics import safe_div, tangent_zeros
 from .motion import Motion
 
 
@@ -80,6 +82,51 @@ def _acceleration(v: Array, dt: Array) -> Array:
     return safe_div(dv, dt)
 
 
+def _linear(effect) -> list[str]:
+    return [f.name for f in dataclasses.fields(effect) if f.metadata.get("linear")]
+
+
+@eqx.filter_custom_jvp
+def _term(effect: AbstractEffect, s: Signals) -> Array:
+    """``effect.term(s)``, with a JVP that skips the signals' tangents where the effect is
+    switched off (`_term_jvp`)."""
+    return effect.term(s)
+
+
+@_term.def_jvp
+def _term_jvp(primals, tangents):
+    # A term is linear in its linear parameters (``param(..., linear=True)``): where all of
+    # them are 0, the term is 0 whatever the signals and the other parameters, and its
+    # tangent is the linear parameters' alone, ``sum_j dw_j * b_j``. A diagnosis's
+    # superset model holds most effects there, and a fit differentiates the signals (the
+    # base force, its Stribeck curve) along every free coordinate: a friction lag's
+    # recurrence or a drift carried 46 tangents per sample of a GMS fit at 0 for nothing,
+    # a step of the GMS cost twice its own. Equal to the plain JVP wherever that is finite
+    # (tests/core/test_effect_terms.py); `lax.cond`, so one branch runs (both under a vmap
+    # over effect values).
+    effect, s = primals
+    t_effect, t_s = (tangent_zeros(p, t) for p, t in zip(primals, tangents))
+
+    def full(_):
+        return jax.jvp(lambda e, ss: e.term(ss), (effect, s), (t_effect, t_s))
+
+    names = _linear(effect) if isinstance(effect, AbstractEffect) else []
+    if not names:
+        return full(None)
+
+    def off(_):
+        # the other parameters and the signals enter as constants: no tangents for them
+        def term(values):
+            return eqx.tree_at(lambda e: [getattr(e, n) for n in names], effect,
+                               values).term(s)
+
+        return jax.jvp(term, ([getattr(effect, n) for n in names],),
+                       ([getattr(t_effect, n) for n in names],))
+
+    zero = jnp.all(jnp.stack([jnp.all(jnp.asarray(getattr(effect, n)) == 0) for n in names]))
+    return jax.lax.cond(zero, off, full, None)
+
+
 class WithEffectsState(eqx.Module):
     base: Any
     effects: tuple
@@ -110,7 +157,7 @@ class WithEffects(AbstractFrictionModel):
         s = Signals(t=motion.t, x=motion.x, v=motion.v, a=a, dt=motion.dt, dx=motion.dx,
                     t0=motion.t[0], base=r.force,
                     static=static_force(self.base, motion.v, r.force), load=motion.load)
-        terms = {e.name: e.term(s) for e in self.effects}
+        terms = {e.name: _term(e, s) for e in self.effects}
         force = r.force + sum(terms.values())
         return SimResult(force=force, parts={**r.parts, "base": r.force, **terms},
                          overflow=r.overflow)
