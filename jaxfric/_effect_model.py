@@ -100,8 +100,9 @@ def _term_jvp(primals, tangents):
     # tangent is the linear parameters' alone, ``sum_j dw_j * b_j``. A diagnosis's
     # superset model holds most effects there, and a fit differentiates the signals (the
     # base force, its Stribeck curve) along every free coordinate: a friction lag's
-    # recurrence or a drift carried 46 tangents per sample of a GMS fit at 0 for nothing,
-    # a step of the GMS cost twice its own. Equal to the plain JVP wherever that is finite
+    # recurrence or a drift carried them all at 0 for nothing (the Jacobian of a 20-element
+    # GMS with the ten held effects on 9738 samples: 21.7 ms, 15.2 ms without). Equal to
+    # the plain JVP wherever that is finite
     # (tests/core/test_effect_terms.py); `lax.cond`, so one branch runs (both under a vmap
     # over effect values).
     effect, s = primals
