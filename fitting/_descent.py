@@ -32,7 +32,7 @@ import optimistix as optx
 from jaxtyping import Array
 
 
-class _State(eqx.Module):
+class QRState(eqx.Module):
     """The point's `f_info` (as ``optx.DampedNewtonDescent``'s state) and the thin QR
     factors of its Jacobian, ``q`` (n x p) and ``r`` (p x p), with ``qtr = Q^T r``."""
 
@@ -55,27 +55,27 @@ class QRDampedNewtonDescent(optx.AbstractDescent):
     for least-squares problems), the Jacobian decomposed once per accepted point (module
     docstring). `query` needs the Jacobian as a matrix (materialised)."""
 
-    def init(self, y, f_info_struct) -> _State:
+    def init(self, y, f_info_struct) -> QRState:
         n = _size(f_info_struct.residual)
         p = _size(f_info_struct.jac.in_structure())
         f_info = jax.tree.map(
             lambda s: jnp.zeros(s.shape, s.dtype) if isinstance(s, jax.ShapeDtypeStruct)
             else s, f_info_struct, is_leaf=lambda s: isinstance(s, jax.ShapeDtypeStruct))
         dtype = _flat(y).dtype
-        return _State(f_info=f_info, q=jnp.zeros((n, p), dtype), r=jnp.zeros((p, p), dtype),
+        return QRState(f_info=f_info, q=jnp.zeros((n, p), dtype), r=jnp.zeros((p, p), dtype),
                       qtr=jnp.zeros((p,), dtype))
 
-    def query(self, y, f_info, state: _State) -> _State:
+    def query(self, y, f_info, state: QRState) -> QRState:
         del y, state
         q, r = jnp.linalg.qr(f_info.jac.as_matrix(), mode="reduced")
-        return _State(f_info=f_info, q=q, r=r, qtr=q.T @ _flat(f_info.residual))
+        return QRState(f_info=f_info, q=q, r=r, qtr=q.T @ _flat(f_info.residual))
 
-    def with_residual(self, state: _State, residual) -> _State:
+    def with_residual(self, state: QRState, residual) -> QRState:
         """`state` with another right-hand side (the same Jacobian and factors)."""
-        return _State(f_info=optx.FunctionInfo.ResidualJac(residual, state.f_info.jac),
+        return QRState(f_info=optx.FunctionInfo.ResidualJac(residual, state.f_info.jac),
                       q=state.q, r=state.r, qtr=state.q.T @ _flat(residual))
 
-    def step(self, step_size, state: _State):
+    def step(self, step_size, state: QRState):
         # optimistix's damped_newton_step: lambda = 1 / step_size, the largest float for a
         # step size at or below the machine epsilon (no step)
         pred = step_size > jnp.finfo(step_size.dtype).eps

@@ -59,6 +59,8 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array
 
+from ._descent import QRState
+
 
 @dataclasses.dataclass(frozen=True)
 class Tolerances:
@@ -229,9 +231,7 @@ def _qr_factor(inner):
     """``(R, Q^T resid)`` of the Jacobian at the solver state `inner`'s last accepted
     point, where its descent keeps them (`fitting._descent`), else None."""
     ds = getattr(inner, "descent_state", None)
-    if ds is None or not hasattr(ds, "r"):
-        return None
-    return ds.r, ds.qtr
+    return (ds.r, ds.qtr) if isinstance(ds, QRState) else None
 
 
 #: The stall rule (achieved): the fit also stops when the last `STALL_STEPS` steps together

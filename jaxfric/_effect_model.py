@@ -111,7 +111,7 @@ def _term_jvp(primals, tangents):
     def full(_):
         return jax.jvp(lambda e, ss: e.term(ss), (effect, s), (t_effect, t_s))
 
-    names = _linear(effect) if isinstance(effect, AbstractEffect) else []
+    names = _linear(effect)
     if not names:
         return full(None)
 

@@ -2,6 +2,7 @@
 
 Each uses the double-``where`` pattern (optax ``safe_norm``): the unsafe branch is fed a
 harmless value where it would be singular, so that its (discarded) gradient is finite too.
+`tangent_zeros` fills a custom JVP rule's symbolic zeros.
 """
 
 import equinox as eqx

@@ -84,7 +84,7 @@ void run(int64_t n, int64_t N, int64_t P, const double* dx, const double* s, con
       const double fsv = Fv + kv * dxv;  // stick force before the clip
       const double lv = nuv * as;  // limit
       const bool starts = dv != 0.0 && dv * fsv > lv;
-      if (jac) {
+      if (jac && (slip || starts)) {  // the target's tangents (the stick branch has none)
         for (int64_t j = 0; j < D; ++j) td[j] = nuv * sd[j];
         td[inu] = sv;
       }
@@ -176,6 +176,19 @@ bool lengths_ok(int64_t n, std::initializer_list<const ffi::Buffer<ffi::F64>*> b
   return true;
 }
 
+// The inputs both handlers share: per-sample arrays of one length, nu and k of another,
+// one cap factor, a force per sample.
+bool inputs_ok(const ffi::Buffer<ffi::F64>& dx, const ffi::Buffer<ffi::F64>& s,
+               const ffi::Buffer<ffi::F64>& d, const ffi::Buffer<ffi::F64>& same,
+               const ffi::Buffer<ffi::F64>& rate, const ffi::Buffer<ffi::F64>& s_prev,
+               const ffi::Buffer<ffi::F64>& nu, const ffi::Buffer<ffi::F64>& k,
+               const ffi::Buffer<ffi::F64>& capf, size_t force) {
+  const int64_t n = static_cast<int64_t>(dx.element_count());
+  return lengths_ok(n, {&s, &d, &same, &rate, &s_prev}) &&
+         k.element_count() == nu.element_count() && capf.element_count() == 1 &&
+         force == static_cast<size_t>(n);
+}
+
 ffi::Error GmsImpl(ffi::Buffer<ffi::F64> dx, ffi::Buffer<ffi::F64> s, ffi::Buffer<ffi::F64> d,
                    ffi::Buffer<ffi::F64> same, ffi::Buffer<ffi::F64> rate,
                    ffi::Buffer<ffi::F64> s_prev, ffi::Buffer<ffi::F64> nu,
@@ -183,8 +196,7 @@ ffi::Error GmsImpl(ffi::Buffer<ffi::F64> dx, ffi::Buffer<ffi::F64> s, ffi::Buffe
                    ffi::ResultBuffer<ffi::F64> force) {
   const int64_t n = static_cast<int64_t>(dx.element_count());
   const int64_t N = static_cast<int64_t>(nu.element_count());
-  if (!lengths_ok(n, {&s, &d, &same, &rate, &s_prev}) || k.element_count() != nu.element_count()
-      || capf.element_count() != 1 || force->element_count() != static_cast<size_t>(n)) {
+  if (!inputs_ok(dx, s, d, same, rate, s_prev, nu, k, capf, force->element_count())) {
     return ffi::Error::InvalidArgument("gms elements: inconsistent lengths");
   }
   run(n, N, 0, dx.typed_data(), s.typed_data(), d.typed_data(), same.typed_data(),
@@ -207,8 +219,7 @@ ffi::Error GmsJacImpl(ffi::Buffer<ffi::F64> dx, ffi::Buffer<ffi::F64> s,
   const int64_t N = static_cast<int64_t>(nu.element_count());
   const int64_t P = static_cast<int64_t>(dcapf.element_count());
   const size_t nP = static_cast<size_t>(n * P), nN = static_cast<size_t>(n * N);
-  if (!lengths_ok(n, {&s, &d, &same, &rate, &s_prev}) || k.element_count() != nu.element_count()
-      || capf.element_count() != 1 || force->element_count() != static_cast<size_t>(n) ||
+  if (!inputs_ok(dx, s, d, same, rate, s_prev, nu, k, capf, force->element_count()) ||
       ds.element_count() != nP || drate.element_count() != nP || ds_prev.element_count() != nP
       || jac_shared->element_count() != nP || jac_nu->element_count() != nN ||
       jac_k->element_count() != nN) {

@@ -226,13 +226,12 @@ def _elements_jvp(primals, tangents):
     t_p = tangent_zeros(model, t_model)
     t_shared = jax.flatten_util.ravel_pytree(_without_own(t_p))[0]
     if _on_kernel(model, motion):
-        def smooth(vec):
-            s, rate, s_prev, _, capf = with_shared(vec, model.nu, model.k)._inputs(motion)
-            return s, rate, s_prev, capf
+        def smooth(vec):  # the inputs, differentiated, and as they are (aux)
+            inputs = with_shared(vec, model.nu, model.k)._inputs(motion)
+            return inputs[:3] + inputs[4:], inputs
 
-        s, rate, s_prev, capf = smooth(shared)
-        ds, drate, ds_prev, dcapf = jax.jacfwd(smooth)(shared)
-        same = model._inputs(motion)[3]
+        (ds, drate, ds_prev, dcapf), (s, rate, s_prev, same, capf) = jax.jacfwd(
+            smooth, has_aux=True)(shared)
         out, jac_nu, jac_k, jac_shared = kernel_gms.jacobian(
             motion.dx, s, motion.d, same, rate, s_prev, model.nu, model.k, capf, ds, drate,
             ds_prev, dcapf)
