@@ -211,7 +211,7 @@ def clean_holdout(case: dict, start) -> float:
     import fitting
     from fitting._base_options import base_model_starts, default_base_models
     from fitting._diagnose import _record, _search_copy, SEARCH_SAMPLES
-    from fitting._select import time_block_folds
+    from fitting._folds import time_block_folds
 
     if not case["hidden"]:
         return float("nan")

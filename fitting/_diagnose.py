@@ -45,13 +45,14 @@ from ._candidates import _code, Candidate, Data
 from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
 from ._diagnosis import Diagnosis, Step
+from ._folds import _blocks, run_folds, time_block_folds
 from ._params import leaf_names, to_fit_representation
 from ._per_run import per_run_values, run_model
 from ._plausibility import plausibility
 from ._refits import Fitter, Option
 from ._regimes import regime_errors, regimes
 from ._rules import DiagnosisRules
-from ._select import _blocks, held_out_sse, run_folds, select, time_block_folds
+from ._select import held_out_sse, select
 from ._start import lag_starts
 
 
@@ -384,8 +385,8 @@ def diagnose(
       `rotary`, `x` then an angle in rad; those of the load only with `load`).
     - `base_models`: ``[(name, start)]`` tried as replacements of the base model by the
       same rule; a start is a plain model or a function of the fitted plain model that
-      returns one, or several starts ``((label, start), ...)``, each fitted, the better
-      training fit kept (default `default_base_models`: a GMS with 20 elements, started
+      returns one, or several starts ``((label, start), ...)``, each fitted, the best
+      held-out one kept (`fitting._select._held_out_race`; default `default_base_models`: a GMS with 20 elements, started
       where the fit is and read off the data; ``()`` for none); when one is added,
       ``Diagnosis.finding`` says that the base model is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
