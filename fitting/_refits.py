@@ -50,6 +50,9 @@ class Option:
     start: str = ""  # a base-model option: which of its starts gave the fit kept
     #: Added: the other qualifying options it is not shown better than, ``(name, z)``.
     ties: list = dataclasses.field(default_factory=list)
+    #: A base-model option: its other starts, fitted on every sample, cross-validated
+    #: with it; the one of most held-out gain is kept (`fitting._select._held_out_race`).
+    rivals: list = dataclasses.field(default_factory=list)
     #: Why an option among those tried was not cross-validated ("" when it was, or was not
     #: among them): it cannot qualify (not physical, or its fit not converged).
     skipped: str = ""

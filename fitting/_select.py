@@ -23,8 +23,9 @@ the start kept.
    best regresses the current residual, its linear ones at that regression's values, the
    rest of the model at the current fit; a base-model option from each of its own
    starts (`_replaced`; a GMS at the fit and read off the data), `max_steps` each, the
-   better training fit kept and only it continued (`_race`; one model, several starts:
-   one option, one place among the `tried`), in later
+   best training fit standing for it (continued; one model, several starts: one option,
+   one place among the `tried`) and, when it is cross-validated, every start is, the one
+   of most held-out gain kept (`_race`, `_held_out_race`), in later
    rounds from its own fit of the round before with the current model's effects at
    their fitted values (it starts where it ended, the effect just added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
@@ -162,7 +163,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
            race: bool = True) -> list[Round]:
     """Forward selection from model `start` (plain) over effect names `candidates` and the
     base models `base_options()` gives (``[(name, ((label, plain model or maker), ...))]``:
-    each fitted from every start, the best training fit kept, `_replaced`);
+    each fitted from every start, the best held-out one kept, `_replaced`);
     see the module docstring. `race`: the base fit races its lag starts; False where the
     caller raced them already (on every sample of a long record) and `start` is the one
     kept. Returns the rounds; the last round's ``current`` is the final model."""
@@ -262,18 +263,46 @@ def _set(fitter: Fitter, o: Option, current: Option) -> None:
 
 
 def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
-    """One option fitted from several starts: each start gets `max_steps`, the best
-    training fit is kept and only it is continued where it stopped (successive halving:
-    the budget goes to the start that leads)."""
+    """One option fitted from several starts: each start gets `max_steps`; the best
+    training fit stands for the option among the `tried` and is continued where it
+    stopped; the others are its `rivals`, cross-validated with it (`_held_out_race`)."""
     for o in group:
         _refit(fitter, o, current, log, continued=len(group) == 1)
     kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
-    if kept.unconverged and len(group) > 1:  # continued from where it stopped
-        log(f"  continuing {kept.name} ({kept.start}) ...")
-        kept.unconverged = ""
-        kept.fitted, kept.pred = fitter.fit(kept.fitted, kept.on)
-        _set(fitter, kept, current)
+    _continue(fitter, kept, current, log)
+    kept.rivals = [o for o in group if o is not kept and np.isfinite(o.sse)]
     return kept
+
+
+def _continue(fitter: Fitter, o: Option, current: Option, log) -> None:
+    """Continue `o`'s fit on every sample once where it stopped at its step limit."""
+    if o.unconverged:
+        log(f"  continuing {o.name} ({o.start}) ...")
+        o.unconverged = ""
+        o.fitted, o.pred = fitter.fit(o.fitted, o.on)
+        _set(fitter, o, current)
+
+
+def _held_out_race(fitter: Fitter, o: Option, current: Option, folds, z: float,
+                   log) -> None:
+    """Of base-model option `o` and its `rivals` (its other starts), keep in `o` the one
+    whose cross-validation removes the most held-out SSE: a start is chosen by the rule's
+    measure, not by its training fit (a slow friction lag that remembers the motion fits
+    the training samples far better and predicts held-out blocks no better)."""
+    for r in o.rivals:
+        r.optimism, r.against = o.optimism, o.against
+        fitter.cross_validate(r, folds, current)
+        judge(r, current, folds, fitter.data.F, z)
+        log(f"    from the {r.start}: held-out SSE {-100 * r.gain:+.3g} %, z = {r.z:.2f}")
+    best = max([o, *o.rivals], key=lambda r: r.gain if np.isfinite(r.gain) else -np.inf)
+    if best is not o:  # swapped: `o` stays where lists hold it, the kept start a rival
+        for f in dataclasses.fields(Option):
+            a, b = getattr(o, f.name), getattr(best, f.name)
+            setattr(o, f.name, b)
+            setattr(best, f.name, a)
+        o.rivals, best.rivals = best.rivals, []
+        log(f"    kept the fit from the {o.start}")
+        _continue(fitter, o, current, log)
 
 
 def _optimism(fitter: Fitter, current: Option, options: list[Option]) -> None:
@@ -330,6 +359,8 @@ def _cross_validate(fitter, current, options, folds, rules, log):
         log(f"    held-out SSE {-100 * o.gain:+.3g} % (of a typical block at most "
             f"{-100 * o.lower:+.3g} %), z = {o.z:.2f}"
             + (f" (judged where stopped: {o.cut})" if o.cut else ""))
+        if o.rivals:
+            _held_out_race(fitter, o, current, folds, rules.z, log)
     # physical and converged: `_admissible` kept only those, checked again for a caller
     # that did not
     good = [o for o in options if o.z >= rules.z and o.lower >= rules.min_gain

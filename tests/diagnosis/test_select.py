@@ -394,6 +394,56 @@ def test_the_starts_of_one_option_race_and_only_the_leader_is_continued():
     assert group[0].unconverged  # the one behind is left where it stopped
 
 
+def test_a_base_options_start_is_chosen_by_held_out_error_not_by_its_training_fit():
+    """A base-model option's starts are cross-validated together: the one that removes
+    the most held-out SSE is kept (in the option's place, its fit on every sample
+    continued where it stopped), though another fits the training samples better (a slow
+    lag that remembers the motion); where the training leader also predicts best, it
+    stays, and nothing is refitted."""
+    from types import SimpleNamespace
+
+    import optimistix as optx
+
+    n = 40
+    F = np.zeros(n)
+    folds = S.time_block_folds(np.arange(n, dtype=float), 4, 2)
+    rules = DiagnosisRules(blocks=4, folds=2)
+
+    def case(held_out):
+        fitter, fits = R.Fitter(SimpleNamespace(F=F)), []
+
+        def cross_validate(option, folds, current=None):
+            if not option.fold_preds:
+                option.fold_preds = [np.full(n, held_out[option.start])] * len(folds)
+
+        def fit(model, on, weights=None):
+            fits.append(model)
+            fitter.last = SimpleNamespace(result=optx.RESULTS.successful, stop="converged",
+                                          stopped="", rmse=0.0)
+            return f"{model}, continued", np.full(n, 0.1)
+
+        fitter.cross_validate, fitter.fit = cross_validate, fit
+        current = R.Option(("base",), None, frozenset(), fold_preds=[np.ones(n)] * 2,
+                           fold_converged=[True, True])
+        kept = R.Option(("GMS",), None, frozenset(), base=True, start="slow lag", sse=1.0,
+                        fitted="slow fit", optimism=0.3)
+        kept.rivals = [R.Option(("GMS",), None, frozenset(), base=True, start="fast lag",
+                                sse=5.0, fitted="fast fit",
+                                unconverged="fit on every sample: max_steps")]
+        chosen = S._cross_validate(fitter, current, [kept], folds, rules, lambda *_: None)
+        return kept, chosen, fits
+
+    kept, chosen, fits = case({"slow lag": 0.8, "fast lag": 0.5})
+    assert chosen is kept and kept.start == "fast lag" and fits == ["fast fit"]
+    assert kept.fitted == "fast fit, continued" and not kept.unconverged
+    assert kept.gain == pytest.approx(0.75) and kept.optimism == 0.3
+    assert [r.start for r in kept.rivals] == ["slow lag"]
+    assert kept.rivals[0].gain == pytest.approx(0.36)
+    kept, chosen, fits = case({"slow lag": 0.5, "fast lag": 0.8})
+    assert chosen is kept and kept.start == "slow lag" and kept.fitted == "slow fit"
+    assert fits == [] and kept.rivals[0].gain == pytest.approx(0.36)
+
+
 def test_a_fit_cut_at_its_step_limit_is_no_evidence():
     """The quick case with every fit cut at three steps: the mass's fit on every sample
     has no final values to add, so the mass is not added, and its evidence says why."""
