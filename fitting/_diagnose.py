@@ -386,8 +386,9 @@ def diagnose(
     - `base_models`: ``[(name, start)]`` tried as replacements of the base model by the
       same rule; a start is a plain model or a function of the fitted plain model that
       returns one, or several starts ``((label, start), ...)``, each fitted, the best
-      held-out one kept (`fitting._select._held_out_race`; default `default_base_models`: a GMS with 20 elements, started
-      where the fit is and read off the data; ``()`` for none); when one is added,
+      held-out one kept (`fitting._select._held_out_race`; default `default_base_models`:
+      a GMS with 20 elements, started where the fit is and read off the data; ``()`` for
+      none); when one is added,
       ``Diagnosis.finding`` says that the base model is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
     - `max_steps`: per fit. `load`: the transmitted load (N, or N m), for the load effects.
