@@ -269,7 +269,8 @@ def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
     for o in group:
         _refit(fitter, o, current, log, continued=len(group) == 1)
     kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
-    _continue(fitter, kept, current, log)
+    if len(group) > 1:  # a single start was continued by `_refit` already
+        _continue(fitter, kept, current, log)
     kept.rivals = [o for o in group if o is not kept and np.isfinite(o.sse)]
     return kept
 
