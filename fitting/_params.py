@@ -90,6 +90,18 @@ def props_leaves(props) -> list[ParamProps]:
     return jax.tree.leaves(props, is_leaf=_is_props)
 
 
+def inside_domains(model, props):
+    """`model` with each free leaf exactly on a bound of its transform's domain (a fit's
+    value pinned there, e.g. a Stribeck exponent at its maximum, then a start of another
+    fit) moved just inside it (`AbstractTransform.inside`); any other value unchanged, a
+    value beyond a bound refused as before (`make_layout`)."""
+    params, static = parameters(model)
+    leaves, tree = jax.tree.flatten(params)
+    new = [p.transform.inside(leaf) if p.free else leaf
+           for leaf, p in zip(leaves, props_leaves(props))]
+    return eqx.combine(jax.tree.unflatten(tree, new), static)
+
+
 def set_free(model, props, free: Iterable[str]):
     """A copy of `props` where exactly the leaves named in `free` are free.
 

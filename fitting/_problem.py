@@ -172,6 +172,7 @@ def _problem_from_fit(fit_model, props, free, paper_shape: bool):
         props = _params.default_props(fit_model)
     if free is not None:
         props = _params.set_free(fit_model, props, free)
+    fit_model = _params.inside_domains(fit_model, props)
     layout = _params.make_layout(fit_model, props)
     problem = _Problem(template=fit_model, layout=layout, paper_shape=paper_shape)
     return problem, _params.to_vector(fit_model, layout)

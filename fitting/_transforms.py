@@ -49,6 +49,11 @@ class AbstractTransform(eqx.Module):
         """Human-readable domain, for error messages."""
         return "finite"
 
+    def inside(self, value: Array) -> Array:
+        """`value` with any entry exactly on a bound of the domain moved just inside it
+        (none here; `Sigmoid`)."""
+        return value
+
     def at_bound(self, y: Array) -> Array:
         """Elementwise: does the coordinate `y` sit at a bound of the transform, where the
         parameter no longer moves with `y` (see `PINNED`)? Never for an unbounded one."""
@@ -158,6 +163,15 @@ class Sigmoid(AbstractTransform):
 
     def domain(self):
         return f"in ({self.low:g}, {self.high:g})"
+
+    def inside(self, value):
+        """An entry equal to `low` or `high` (a fit's value pinned there: the sigmoid
+        saturates in floating point) moved `10 * PINNED` of the width inside, where it is
+        not pinned (`at_bound`) and a fit can move it."""
+        gap = 10 * PINNED * (self.high - self.low)
+        value = jnp.asarray(value)
+        return jnp.where(value == self.high, self.high - gap,
+                         jnp.where(value == self.low, self.low + gap, value)).astype(value.dtype)
 
 
 class Simplex(AbstractTransform):

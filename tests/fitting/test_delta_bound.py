@@ -71,3 +71,19 @@ def test_simulation_takes_any_delta_and_a_start_outside_the_bound_is_refused():
     # Held, it may lie beyond the bound (a model given, not fitted).
     res = fitting.fit(steep, t, x, F, free=["Fs", "Fc", "Vs", "sigma2"])
     assert float(res.model.stribeck.delta) == 500.0 and bool(res.converged), res.stopped
+
+
+def test_a_start_on_the_bound_a_fit_reported_starts_just_inside_it():
+    """A fit can report ``delta`` exactly at its bound (the sigmoid saturates in floating
+    point); that model as the start of another fit (a diagnosis's GMS made from a fold's
+    fitted curve) starts just inside the bound, not refused; one beyond it still is."""
+    t = np.linspace(0.0, 2.0, 401)
+    x = 5e-3 * np.sin(2 * np.pi * 0.5 * t)
+    truth = jaxfric.paper.tustin()
+    F = np.asarray(jaxfric.simulate(truth, t, x))
+    on = eqx.tree_at(lambda m: m.stribeck.delta, truth, DELTA_MAX)
+    res = fitting.fit(on, t, x, F, max_steps=5)
+    assert np.isfinite(float(res.rmse)) and float(res.model.stribeck.delta) <= DELTA_MAX
+    beyond = eqx.tree_at(lambda m: m.stribeck.delta, truth, float(np.nextafter(DELTA_MAX, 200)))
+    with pytest.raises(ValueError, match=r"starting value of 'delta'"):
+        fitting.fit(beyond, t, x, F)
