@@ -312,6 +312,14 @@ def _run_rows(names, full: Data, copy: Data, folds, options, fits) -> list[dict]
             for i, (name, sl) in enumerate(zip(names, full.slices()))]
 
 
+def _other_start(o: Option) -> dict:
+    """A base-model option's start not kept, for ``trials``: its training SSE and, where
+    it was cross-validated, its held-out gain and z (`fitting._select._held_out_race`)."""
+    return {"start": o.start, "sse_train": o.sse,
+            "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
+            "z": None if not np.isfinite(o.z) else o.z}
+
+
 def _candidate(o: Option, current: Option, added: bool) -> Candidate:
     new = sorted(o.on - current.on)
     effect = o.fitted.effects[new[0]] if new else None
@@ -529,7 +537,9 @@ def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, 
                "block_folds": o.block_folds, "block_ref": o.block_ref,
                "block_gains": o.block_gains, "physical": not o.physical,
                "converged": not o.unconverged, "fold_fits_at_limit": o.cut or None,
-               "added": o is r.added} for i, r in enumerate(rounds) for o in r.options]
+               "added": o is r.added, "start": o.start or None,
+               "other_starts": [_other_start(x) for x in o.rivals]}
+              for i, r in enumerate(rounds) for o in r.options]
     if finding:
         log(finding)
     return Diagnosis(baseline=baseline, steps=steps, rankings=rankings,

@@ -333,6 +333,8 @@ def test_a_base_model_option_of_several_starts_is_one_option():
                     for n in ("Tustin again", "Tustin far"))
     assert again.evidence.startswith("near;") and alone.evidence.startswith("as given;")
     assert base[0]["sse_train"] < base[1]["sse_train"]
+    assert base[0]["start"] == "near" and base[1]["other_starts"] == []
+    assert [o["start"] for o in base[0]["other_starts"]] == ["far"]
     with pytest.raises(ValueError, match="needs a start"):
         diagnose(start, t, x, F, v, a=a, effects=("offset",), rules=rules,
                  base_models=[("nothing", ())])
