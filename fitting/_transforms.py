@@ -168,10 +168,12 @@ class Sigmoid(AbstractTransform):
         """An entry equal to `low` or `high` (a fit's value pinned there: the sigmoid
         saturates in floating point) moved `10 * PINNED` of the width inside, where it is
         not pinned (`at_bound`) and a fit can move it."""
+        v = np.asarray(value)  # concrete, as `fitting._params.make_layout` checks it
+        if not np.any((v == self.low) | (v == self.high)):
+            return value
         gap = 10 * PINNED * (self.high - self.low)
-        value = jnp.asarray(value)
-        return jnp.where(value == self.high, self.high - gap,
-                         jnp.where(value == self.low, self.low + gap, value)).astype(value.dtype)
+        v = np.where(v == self.high, self.high - gap, np.where(v == self.low, self.low + gap, v))
+        return jnp.asarray(v, dtype=jnp.asarray(value).dtype)
 
 
 class Simplex(AbstractTransform):
