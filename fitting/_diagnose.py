@@ -312,12 +312,15 @@ def _run_rows(names, full: Data, copy: Data, folds, options, fits) -> list[dict]
             for i, (name, sl) in enumerate(zip(names, full.slices()))]
 
 
-def _other_start(o: Option) -> dict:
-    """A base-model option's start not kept, for ``trials``: its training SSE and, where
-    it was cross-validated, its held-out gain and z (`fitting._select._held_out_race`)."""
-    return {"start": o.start, "sse_train": o.sse,
-            "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
-            "z": None if not np.isfinite(o.z) else o.z}
+def _or_none(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None
+
+
+def _scores(o: Option) -> dict:
+    """An option's training SSE and, where it was cross-validated, its held-out gain and
+    z, for ``trials`` (a base-model option's other starts too)."""
+    return {"sse_train": o.sse, "held_out_share_removed": _or_none(o.gain),
+            "z": _or_none(o.z)}
 
 
 def _candidate(o: Option, current: Option, added: bool) -> Candidate:
@@ -530,15 +533,13 @@ def _result(rounds, baseline, steps, base_res, full, search, finding, by, runs, 
     warnings = {"baseline": _plausible(base_res.fit_model, full)}
     if steps:
         warnings["final"] = _plausible(final, full)
-    trials = [{"round": i, "effects": list(o.names), "sse_train": o.sse,
-               "held_out_share_removed": None if not np.isfinite(o.gain) else o.gain,
-               "z": None if not np.isfinite(o.z) else o.z,
-               "held_out_share_shown": None if not np.isfinite(o.lower) else o.lower,
+    trials = [{"round": i, "effects": list(o.names), **_scores(o),
+               "held_out_share_shown": _or_none(o.lower),
                "block_folds": o.block_folds, "block_ref": o.block_ref,
                "block_gains": o.block_gains, "physical": not o.physical,
                "converged": not o.unconverged, "fold_fits_at_limit": o.cut or None,
                "added": o is r.added, "start": o.start or None,
-               "other_starts": [_other_start(x) for x in o.rivals]}
+               "other_starts": [{"start": x.start, **_scores(x)} for x in o.rivals]}
               for i, r in enumerate(rounds) for o in r.options]
     if finding:
         log(finding)
