@@ -174,9 +174,10 @@ def start_effect(name: str, data: Data, base_model, resid: np.ndarray, s=None,
     return _set(best, values)
 
 
-def physical(effect) -> str:
+def physical(effect, data: Data) -> str:
     """Why `effect`'s fitted values are not physical ("" when they are), from each
-    field's ``physical`` range (of every run's value, for a per-run parameter)."""
+    field's ``physical`` range (of every run's value, for a per-run parameter), then
+    from the effect's own limits on `data`'s longest run (`AbstractEffect.unphysical`)."""
     wrapped, effect = effect, plain_effect(effect)
     for f in dataclasses.fields(effect):
         rng = f.metadata.get("physical")
@@ -187,7 +188,8 @@ def physical(effect) -> str:
                          else getattr(effect, f.name), float)
         if np.any(val < rng[0]) or np.any(val > rng[1]):
             return f"{f.name} = {np.round(val, 6).tolist()} outside [{rng[0]}, {rng[1]}]"
-    return ""
+    d = data.longest()
+    return effect.unphysical(d.t, d.x, d.v, d.F)
 
 
 

@@ -259,7 +259,7 @@ def _set(fitter: Fitter, o: Option, current: Option) -> None:
     o._note("fit on every sample", o.result)
     o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
     o.physical = "" if o.base else "; ".join(
-        p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i])))
+        p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i], fitter.data)))
 
 
 def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:

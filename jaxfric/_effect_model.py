@@ -65,6 +65,13 @@ class AbstractEffect(eqx.Module):
         one instance, for an effect whose parameters are all linear."""
         return [cls()]
 
+    def unphysical(self, t, x, v, F) -> str:
+        """Why this fitted instance is not the effect it names on the record (NumPy arrays
+        as for `grid`); "" when it is. For a limit that depends on the record (a time
+        constant against its duration), where a field's fixed ``physical`` range cannot
+        say it. Default: ""."""
+        return ""
+
     def add_to(self, model: AbstractFrictionModel) -> "WithEffects":
         """``model + self``: `model` with this effect appended."""
         return add_effects(model, self)

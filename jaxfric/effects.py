@@ -373,6 +373,19 @@ class Drift(AbstractEffect):
         taus = np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)
         return [cls(drift_decay=d) for d in (0.0, *(1.0 / taus))]
 
+    def unphysical(self, t, x, v, F):
+        """A drift changes slowly: its time constant is at least the shortest of `grid`, a
+        tenth of the record. A faster change is confined to one stretch of the record (a
+        start-up transient, a base model's mismatch while it first loads), so its
+        parameters come from that stretch alone, and a blocked cross-validation holding
+        that stretch out cannot judge it."""
+        shortest = max(float(t[-1] - t[0]), 1e-9) / DRIFT_SPAN_RATIO
+        decay = abs(float(self.drift_decay))
+        if decay * shortest <= 1:
+            return ""
+        return (f"drift_decay = {float(self.drift_decay):.4g} 1/s: time constant "
+                f"{1 / decay:.3g} s, under a tenth of the record ({shortest:.3g} s)")
+
     def term(self, s):
         elapsed = s.t - s.t0
         return s.base * (self.drift_level

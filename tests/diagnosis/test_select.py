@@ -202,14 +202,33 @@ def test_standard_error_of_the_mean_block_statistic():
     assert S.standard_error(d[:1], folds[:1]) == np.inf
 
 
+def _record(span=100.0, n=1001):
+    t = np.linspace(0.0, span, n)
+    return C.Data(t, np.zeros(n), np.zeros(n), np.zeros(n))
+
+
 def test_physical_ranges_come_from_field_metadata():
-    assert C.physical(fx.Inertia(mass=2.0)) == ""
-    assert "mass" in C.physical(fx.Inertia(mass=-0.1))
-    assert "c_drag" in C.physical(fx.QuadraticDrag(c_drag=-1.0))
-    assert "lag_gain" in C.physical(fx.FrictionLag(lag_gain=1.5, tau=0.1))
-    assert C.physical(fx.Offset(offset=-3.0)) == ""  # an offset may have either sign
+    data = _record()
+    assert C.physical(fx.Inertia(mass=2.0), data) == ""
+    assert "mass" in C.physical(fx.Inertia(mass=-0.1), data)
+    assert "c_drag" in C.physical(fx.QuadraticDrag(c_drag=-1.0), data)
+    assert "lag_gain" in C.physical(fx.FrictionLag(lag_gain=1.5, tau=0.1), data)
+    assert C.physical(fx.Offset(offset=-3.0), data) == ""  # an offset may have either sign
     assert C.switchable("inertia") and C.switchable("cogging")
     assert not C.switchable("presliding")  # no linear parameter to switch it off
+
+
+def test_a_drift_faster_than_a_tenth_of_the_record_is_not_physical():
+    # A change settled within one stretch of the record (a start-up transient: measured,
+    # 0.4 s on a 97 s clean LuGre-truth file) is not a drift; the shortest time constant
+    # of the drift's own grid is the limit, either sign of the decay.
+    data = _record(span=100.0)
+    assert C.physical(fx.Drift(drift_rate=0.01, drift_decay=1 / 12.0), data) == ""
+    assert C.physical(fx.Drift(drift_rate=0.01, drift_decay=-1 / 12.0), data) == ""
+    assert C.physical(fx.Drift(drift_rate=0.01), data) == ""  # linear: wear
+    for decay in (1 / 0.4, -1 / 8.0):
+        assert "drift_decay" in C.physical(fx.Drift(drift_rate=0.01, drift_decay=decay), data)
+    assert C.physical(fx.Drift(drift_rate=0.01, drift_decay=1 / 8.0), _record(span=50.0)) == ""
 
 
 def test_physical_checks_every_runs_value_of_a_relative_per_run_parameter():
@@ -218,12 +237,13 @@ def test_physical_checks_every_runs_value_of_a_relative_per_run_parameter():
     model = with_runs(jaxfric.paper.two_state() + fx.Drift(drift_level=0.2), 3)
     (e,) = model.effects
     e = eqx.tree_at(lambda e: e.effect.drift_level, e, jnp.array([1.5, 0.2]))
-    assert "drift_level" in C.physical(e)
+    data = _record()
+    assert "drift_level" in C.physical(e, data)
     moved = e.rereferenced(1)  # run 2's 1.5 is now the reference, not stored
     assert np.all(np.abs(np.asarray(moved.effect.drift_level)) <= 1.0)
-    assert "drift_level" in C.physical(moved)
+    assert "drift_level" in C.physical(moved, data)
     assert C.physical(eqx.tree_at(lambda e: e.effect.drift_level, e,
-                                  jnp.array([0.5, 0.2]))) == ""
+                                  jnp.array([0.5, 0.2])), data) == ""
 
 
 def test_start_effect_finds_the_cogging_period_on_its_grid():
