@@ -8,7 +8,7 @@ import pytest
 
 import fitting
 import jaxfric
-from fitting import _chunked
+from fitting import _chunked, _fit, _solve
 from fitting._refits import _converged
 from jaxfric import paper, trajectories
 
@@ -129,7 +129,7 @@ import os, sys
 os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
 import equinox as eqx, jax, numpy as np
 import fitting, jaxfric
-from fitting import _chunked
+from fitting import _chunked, _fit, _solve
 from fitting._refits import _converged
 from jaxfric import paper, trajectories
 t = np.arange(0.0, 10.0, 1e-3)
@@ -278,3 +278,26 @@ def test_a_fit_at_a_kink_near_the_optimum_is_converged():
     assert bool(res.converged), res.stopped
     assert float(res.rmse) < 1.01 * floor
     assert int(res.num_steps) <= 40, res.stopped
+
+
+def test_an_evaluation_from_the_chunk_program_matches_a_separate_one(problem, monkeypatch):
+    # `_evaluate_at` reads the residuals and Jacobian off one step of the fit's own chunk
+    # program (so that no other program is compiled for them): they must be those of a
+    # separate forward-mode evaluation at the same point, which the chunk must not move.
+    t, x, F, start = problem
+    seen = {}
+    inner = _chunked.solve_chunked
+
+    def capture(problem_, y0, data, solver, *args, **kw):
+        seen.update(problem=problem_, y0=y0, data=data, solver=solver)
+        return inner(problem_, y0, data, solver, *args, **kw)
+
+    monkeypatch.setattr(_chunked, "solve_chunked", capture)
+    monkeypatch.setattr(_fit, "solve_chunked", capture)
+    fitting.fit(start, t[:3000], x[:3000], F[:3000], max_steps=8)
+    p, data, solver = seen["problem"], seen["data"], seen["solver"]
+    y = np.asarray(seen["y0"]) * (1 + 0.01 * np.arange(np.size(seen["y0"])))
+    got = _chunked._evaluate_at(p, y, data, solver, fitting.Tolerances())
+    want = _solve._evaluate_impl(p, jax.numpy.asarray(y), data)
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(np.asarray(g), np.asarray(w), rtol=1e-9, atol=1e-12)
