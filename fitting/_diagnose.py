@@ -270,7 +270,7 @@ def _final_fit(fitter: Fitter, model, on, copy: Data, full: Data, log, what: str
     pruned = _prune(model, on)
     if full.t.size != copy.t.size:
         log(f"refitting {what} on all {full.t.size} samples ...")
-    f = Fitter(full, fitter.fixed, fitter.max_steps, workers=fitter.workers)
+    f = Fitter(full, fitter.fixed, fitter.max_steps)
     f.fit(pruned, frozenset(range(len(getattr(pruned, "effects", ())))))
     return f.last
 
@@ -373,7 +373,6 @@ def diagnose(
     search_samples: int | None = SEARCH_SAMPLES,
     a=None,
     run_names: Sequence[str] | None = None,
-    workers: int | None = None,
 ) -> Diagnosis:
     """Fit `model` to ``(t, x, F[, v])`` (SI), or to several runs (`t` a list of
     `fitting.Dataset`, as `fitting.fit_datasets` takes), and add, one round at a time, the
@@ -413,9 +412,6 @@ def diagnose(
       to its length) and the final model refitted on all; None or 0 searches on every
       sample.
     - `log`: called with a line of progress for every fit.
-    - `workers`: fits run at once, in threads (the folds of an option, the options of a
-      round; `fitting._refits.Fitter.map`); default: the cores this process may use. The
-      result does not depend on it.
 
     Returns a `Diagnosis`; its models are in the fit representation
     (`fitting.to_fit_representation`); with per-run parameters, ``Diagnosis.model`` has
@@ -443,7 +439,7 @@ def diagnose(
     base_full, search, won, copy, pick = None, "", "", full, np.arange(n)
     if search_samples and n >= 2 * search_samples:  # the baseline, the copy's judge
         log(f"fitting the base model on all {n} samples ...")
-        f = Fitter(full, fixed, max_steps, log, workers)
+        f = Fitter(full, fixed, max_steps, log)
         won = f.race(starts := lag_starts(model, fixed),  # the winner starts the copy
                      frozenset(range(len(getattr(model, "effects", ())))))[2]
         model = dict(starts).get(won, model)
@@ -461,7 +457,7 @@ def diagnose(
     present = {e.name for e in getattr(model, "effects", ())}
     names = effect_names(effects, present | _contained(model, tuple(fixed)) if not effects
                          else present, rotary, full.load is not None)
-    fitter = Fitter(copy, fixed, max_steps, log, workers)
+    fitter = Fitter(copy, fixed, max_steps, log)
     rounds = select(fitter, model, names, folds, rules,
                     base_options=lambda: list(base_models), log=log, race=base_full is None)
     masks = _masks(full)

@@ -2,17 +2,9 @@
 `Option`, one thing the rule can add, with what its fits found, and `Fitter`, the fits on
 one record: the superset model with some effects switched on (their parameters freed), on
 every sample or on a fold's training samples, nested and paired with the current model's
-fold fits. `_converged` says which fits the rule takes as final.
-
-Independent fits (the folds of one option, the options of one round) run `workers` at a
-time in threads (`Fitter.map`): a fit spends its time in compiled programs, which run with
-the interpreter lock released, and one fit keeps about one core busy. Each fit is the same
-computation whichever thread runs it, and the results are taken in order, so the
-diagnosis does not depend on the number of workers (`tests/diagnosis/test_select.py`)."""
+fold fits. `_converged` says which fits the rule takes as final."""
 
 import dataclasses
-import os
-from concurrent.futures import ThreadPoolExecutor
 
 import equinox as eqx
 import jax
@@ -104,26 +96,9 @@ class Fitter:
     """Fits on one record (one run or several, `Data`): `superset` models, each with its
     own slots switched on."""
 
-    def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None,
-                 workers: int | None = None):
+    def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None):
         self.data, self.fixed, self.max_steps = data, tuple(fixed), max_steps
         self.log = log or (lambda *_: None)
-        #: Fits run at once (`map`); default: the cores this process may use.
-        self.workers = len(os.sched_getaffinity(0)) if workers is None else max(1, workers)
-
-    def map(self, fn, items) -> list:
-        """``[fn(item) for item in items]``, `workers` at a time in threads, in order. A
-        first call of a program's shape is traced and compiled once, the other threads
-        waiting for it (JAX's caches are shared). On an exception the fits not yet
-        started are cancelled."""
-        items = list(items)
-        if self.workers < 2 or len(items) < 2:
-            return [fn(item) for item in items]
-        pool = ThreadPoolExecutor(min(self.workers, len(items)))
-        try:
-            return list(pool.map(fn, items))
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
 
     def props(self, model, on: frozenset):
         """Free: the base model's leaves (but `fixed`) and those of the effects in `on`
@@ -156,16 +131,10 @@ class Fitter:
         return sum(n for n, p in zip(sizes, _params.props_leaves(props)) if p.free)
 
     def fit(self, model, on: frozenset, weights=None):
-        """`fitted` with its `FitResult` kept in `last`."""
-        fitted, pred, self.last = self.fitted(model, on, weights)
-        return fitted, pred
-
-    def fitted(self, model, on: frozenset, weights=None):
-        """``(fitted model in the fit representation, prediction on every sample,
-        FitResult)``: one fit of every run at once (`fitting.fit_datasets`: each run from
-        its own zero state, per-run parameters per run); a run of zero weight is left out
-        of the fit and predicted with its per-run parameters at their mean over the runs
-        fitted (`Data.simulate`)."""
+        """``(fitted model in the fit representation, prediction on every sample)``: one
+        fit of every run at once (`fitting.fit_datasets`: each run from its own zero state,
+        per-run parameters per run); a run of zero weight is left out of the fit and predicted with
+        its per-run parameters at their mean over the runs fitted (`Data.simulate`)."""
         d = self.data
         runs = d.runs()
         w = ([None] * len(runs) if weights is None else
@@ -180,7 +149,8 @@ class Fitter:
         if len(runs) == 1:
             res = eqx.tree_at(lambda r: (r.prediction, r.residuals), res,
                               (res.prediction[0], res.residuals[0]))
-        return res.fit_model, d.simulate(res.fit_model, fitted), res
+        self.last = res
+        return res.fit_model, d.simulate(res.fit_model, fitted)
 
     def race(self, starts, on: frozenset):
         """``(fitted, prediction, label)``: one model fitted on every sample from each of
@@ -191,12 +161,11 @@ class Fitter:
         if len(starts) == 1:
             return (*self.fit(starts[0][1], on), "")
         fits, ok = [], np.isfinite(self.data.F)
-        for label, _ in starts:
+        for label, model in starts:
             self.log(f"  from the {label} ...")
-        for (label, _), (fitted, pred, res) in zip(starts, self.map(
-                lambda start: self.fitted(start[1], on), starts)):
+            fitted, pred = self.fit(model, on)
             sse = float(np.sum((pred - self.data.F)[ok] ** 2))
-            fits.append((sse if np.isfinite(sse) else np.inf, label, fitted, pred, res))
+            fits.append((sse if np.isfinite(sse) else np.inf, label, fitted, pred, self.last))
         sse, label, fitted, pred, self.last = min(fits, key=lambda f: f[0])
         self.log(f"  kept the fit from the {label} (training RMSE "
                  f"{np.sqrt(sse / ok.sum()):.4g} N)")
@@ -206,18 +175,13 @@ class Fitter:
         return fitted, pred, label
 
     def fold_fit(self, model, on: frozenset, train=None):
-        """`fold_fitted` with its `FitResult` kept in `last`."""
-        fitted, pred, self.last = self.fold_fitted(model, on, train)
-        return fitted, pred
-
-    def fold_fitted(self, model, on: frozenset, train=None):
-        """`fitted` on a fold's training samples (every sample without `train`), continued
+        """`fit` on a fold's training samples (every sample without `train`), continued
         once from where it stopped when it did not converge: the step budget of every
         option's fit."""
-        fitted, pred, res = self.fitted(model, on, train)
-        if not _converged(res):
-            fitted, pred, res = self.fitted(fitted, on, train)
-        return fitted, pred, res
+        fitted, pred = self.fit(model, on, train)
+        if not _converged(self.last):
+            fitted, pred = self.fit(fitted, on, train)
+        return fitted, pred
 
     def cross_validate_nested(self, option: Option, current: Option, folds,
                               new: dict) -> None:
@@ -229,18 +193,14 @@ class Fitter:
         nothing was fitted on the held-out blocks."""
         if option.fold_preds:
             return
-
-        def one(k):
-            train, model = folds[k][0], current.fold_models[k]
+        for k, (train, _) in enumerate(folds):
+            model = current.fold_models[k]
             resid = self.data.F - current.fold_preds[k]
             s = _signals(self.data, model.without_effects())
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            return self.fold_fitted(model, option.on, train)
-
-        for out in self.map(one, range(len(folds))):
-            option._fold(*out)
+            option._fold(*self.fold_fit(model, option.on, train), self.last)
 
     def reference(self, current: Option, folds) -> None:
         """Set `current.fold_refs`, what every option is judged against: per fold, the
@@ -249,14 +209,14 @@ class Fitter:
         not credited with the improvement a cut fit leaves, only with its own freedom."""
         if current.fold_refs:
             return
-        cut = [k for k in range(len(folds)) if not current.fold_converged[k]]
-        for k in cut:
-            self.log(f"  continuing the current model's fold {k} fit (stopped at its "
-                     "step limit) as the reference ...")
-        more = dict(zip(cut, self.map(lambda k: self.fold_fitted(
-            current.fold_models[k], current.on, folds[k][0])[1], cut)))
-        current.fold_refs.extend(more.get(k, current.fold_preds[k])
-                                 for k in range(len(folds)))
+        for k, (train, _) in enumerate(folds):
+            if current.fold_converged[k]:
+                current.fold_refs.append(current.fold_preds[k])
+            else:
+                self.log(f"  continuing the current model's fold {k} fit (stopped at its "
+                         "step limit) as the reference ...")
+                current.fold_refs.append(self.fold_fit(current.fold_models[k], current.on,
+                                                       train)[1])
 
     def cross_validate(self, option: Option, folds, current: Option | None = None) -> None:
         """Refit `option` from its start (`option.model`) with each fold held out; a
@@ -267,14 +227,10 @@ class Fitter:
         blocks predicted by a model that was fitted on them."""
         if option.fold_preds:
             return
-
-        def one(k):
+        for k, (train, _) in enumerate(folds):
             start = (_replaced(option.make, current.fold_models[k])
                      if option.make is not None and current is not None else option.model)
-            return self.fold_fitted(start, option.on, folds[k][0])
-
-        for out in self.map(one, range(len(folds))):
-            option._fold(*out)
+            option._fold(*self.fold_fit(start, option.on, train), self.last)
 
 
 def _replaced(make, model):

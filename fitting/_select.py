@@ -192,7 +192,8 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             options.append(Option((n,), model, current.on | {i}))
-        _refit(fitter, options, current, log)
+        for o in options:
+            _refit(fitter, o, current, log)
         if not switched:
             for bname, starts in base_options():
                 group = [Option((bname,), _replaced(begin, current.fitted), current.on,
@@ -209,7 +210,8 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             singles = [o for o in best if not o.base]
             pairs = [(_pair(a, b, current), min(a, b, key=lambda o: o.sse))
                      for a, b in itertools.combinations(singles, 2)]
-            _refit(fitter, [o for o, _ in pairs], current, log)
+            for o, _ in pairs:
+                _refit(fitter, o, current, log)
             for o, single in pairs:  # what its other effect adds to its better single
                 _optimism(fitter, single, [o])
             options += [o for o, _ in pairs]
@@ -242,23 +244,18 @@ def _base_starts(starts, earlier, plain) -> list[tuple]:
     return out
 
 
-def _refit(fitter: Fitter, options: list[Option], current: Option, log,
-           continued: bool = True) -> None:
-    """Fit each of `options` on every sample (side by side, `Fitter.map`) with the budget
-    of a fold fit (`Fitter.fold_fitted`: continued once where it stopped at its step
-    limit; not `continued`: one fit, for starts that compete, `_race`); set its fit,
-    training SSE and physical check."""
-    for o in options:
-        log(f"  refitting with {o.name}{f' ({o.start})' if o.start else ''} ...")
-    fit = fitter.fold_fitted if continued else fitter.fitted
-    outs = fitter.map(lambda o: fit(o.model, o.on), options)
-    for o, (fitted, pred, res) in zip(options, outs):
-        o.fitted, o.pred = fitted, pred
-        _set(fitter, o, current, res)
+def _refit(fitter: Fitter, o: Option, current: Option, log, continued: bool = True) -> None:
+    """Fit option `o` on every sample with the budget of a fold fit (`Fitter.fold_fit`:
+    continued once where it stopped at its step limit; not `continued`: one fit, for a
+    start that competes with others, `_race`); set its fit, training SSE and physical
+    check."""
+    log(f"  refitting with {o.name}{f' ({o.start})' if o.start else ''} ...")
+    o.fitted, o.pred = (fitter.fold_fit if continued else fitter.fit)(o.model, o.on)
+    _set(fitter, o, current)
 
 
-def _set(fitter: Fitter, o: Option, current: Option, res) -> None:
-    o.result = res
+def _set(fitter: Fitter, o: Option, current: Option) -> None:
+    o.result = fitter.last
     o._note("fit on every sample", o.result)
     o.sse = float(np.sum((o.pred - fitter.data.F) ** 2))
     o.physical = "" if o.base else "; ".join(
@@ -269,7 +266,8 @@ def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
     """One option fitted from several starts: each start gets `max_steps`; the best
     training fit stands for the option among the `tried` and is continued where it
     stopped; the others are its `rivals`, cross-validated with it (`_held_out_race`)."""
-    _refit(fitter, group, current, log, continued=len(group) == 1)
+    for o in group:
+        _refit(fitter, o, current, log, continued=len(group) == 1)
     kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
     if len(group) > 1:  # a single start was continued by `_refit` already
         _continue(fitter, kept, current, log)
@@ -282,8 +280,8 @@ def _continue(fitter: Fitter, o: Option, current: Option, log) -> None:
     if o.unconverged:
         log(f"  continuing {o.name} ({o.start}) ...")
         o.unconverged = ""
-        o.fitted, o.pred, res = fitter.fitted(o.fitted, o.on)
-        _set(fitter, o, current, res)
+        o.fitted, o.pred = fitter.fit(o.fitted, o.on)
+        _set(fitter, o, current)
 
 
 def _held_out_race(fitter: Fitter, o: Option, current: Option, folds, z: float,

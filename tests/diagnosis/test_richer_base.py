@@ -59,14 +59,15 @@ def test_a_base_options_fold_fits_start_from_the_current_models_fold_fits():
 
     option = R.Option(("GMS",), "the start on every sample", frozenset(), base=True,
                       make=make)
-    fitter = R.Fitter(None, workers=1)  # `seen` and `starts` in fold order
+    fitter = R.Fitter(None)
     starts = []
 
-    def fold_fitted(model, on, train):
+    def fold_fit(model, on, train):
         starts.append(model)
-        return model, np.zeros(100), None
+        fitter.last = None
+        return model, np.zeros(100)
 
-    fitter.fold_fitted = fold_fitted
+    fitter.fold_fit = fold_fit
     option._fold = lambda *args: None
     fitter.cross_validate(option, folds, current)
     assert seen == [20.0, 21.0]

@@ -371,18 +371,18 @@ def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
     fitter = R.Fitter(SimpleNamespace(F=F))
     calls = []
 
-    def fitted(model, on, weights=None):
+    def fit(model, on, weights=None):
         calls.append(model)
         cut = len(calls) == 1
-        res = SimpleNamespace(
+        fitter.last = SimpleNamespace(
             result=optx.RESULTS.nonlinear_max_steps_reached if cut else
             optx.RESULTS.successful, stop="max_steps" if cut else "converged",
             stopped="max_steps = 150 reached" if cut else "", rmse=0.0)
-        return f"fit {len(calls)}", np.zeros(10), res
+        return f"fit {len(calls)}", np.zeros(10)
 
-    fitter.fitted = fitted
+    fitter.fit = fit
     o = R.Option(("offset",), "start", frozenset())
-    S._refit(fitter, [o], R.Option(("base",), None, frozenset()), lambda *_: None)
+    S._refit(fitter, o, R.Option(("base",), None, frozenset()), lambda *_: None)
     assert calls == ["start", "fit 1"] and o.fitted == "fit 2"
     assert o.unconverged == ""
 
@@ -399,16 +399,16 @@ def test_the_starts_of_one_option_race_and_only_the_leader_is_continued():
     calls = []
     level = {"near": 1.0, "far": 2.0, "near fitted": 0.5}
 
-    def fitted(model, on, weights=None):
+    def fit(model, on, weights=None):
         calls.append(model)
         done = model == "near fitted"
-        res = SimpleNamespace(
+        fitter.last = SimpleNamespace(
             result=optx.RESULTS.successful if done else
             optx.RESULTS.nonlinear_max_steps_reached, stop="converged" if done else
             "max_steps", stopped="" if done else "max_steps = 150 reached", rmse=0.0)
-        return f"{model} fitted", np.full(10, level[model]), res
+        return f"{model} fitted", np.full(10, level[model])
 
-    fitter.fitted, fitter.workers = fitted, 1  # `calls` in order
+    fitter.fit = fit
     group = [R.Option(("GMS",), m, frozenset(), base=True, start=m) for m in ("far", "near")]
     kept = S._race(fitter, group, R.Option(("base",), None, frozenset()), lambda *_: None)
     assert calls == ["far", "near", "near fitted"]
@@ -438,13 +438,13 @@ def test_a_base_options_start_is_chosen_by_held_out_error_not_by_its_training_fi
             if not option.fold_preds:
                 option.fold_preds = [np.full(n, held_out[option.start])] * len(folds)
 
-        def fitted(model, on, weights=None):
+        def fit(model, on, weights=None):
             fits.append(model)
-            res = SimpleNamespace(result=optx.RESULTS.successful, stop="converged",
-                                  stopped="", rmse=0.0)
-            return f"{model}, continued", np.full(n, 0.1), res
+            fitter.last = SimpleNamespace(result=optx.RESULTS.successful, stop="converged",
+                                          stopped="", rmse=0.0)
+            return f"{model}, continued", np.full(n, 0.1)
 
-        fitter.cross_validate, fitter.fitted = cross_validate, fitted
+        fitter.cross_validate, fitter.fit = cross_validate, fit
         current = R.Option(("base",), None, frozenset(), fold_preds=[np.ones(n)] * 2,
                            fold_converged=[True, True])
         kept = R.Option(("GMS",), None, frozenset(), base=True, start="slow lag", sse=1.0,
@@ -501,18 +501,3 @@ def test_the_reference_is_the_current_fold_fit_continued_with_an_options_budget(
         np.testing.assert_allclose(cur.fold_refs[k], continued, rtol=1e-12)
         assert np.sum(train * (cur.fold_refs[k] - F) ** 2) < np.sum(
             train * (cur.fold_preds[k] - F) ** 2)
-
-
-def test_the_diagnosis_does_not_depend_on_how_many_fits_run_at_once():
-    """Fits side by side in threads (`Fitter.map`: the options of a round, the folds of an
-    option, the starts of a race) give the same decisions and the same numbers as one
-    after another: each fit is the same computation, its results taken in order."""
-    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
-    F = F + 0.3 * np.sin(2 * np.pi * x / 1.1e-3)  # a cogging beside the mass
-    rules = DiagnosisRules(blocks=8, folds=2, tried=2, max_added=2)
-    runs = [diagnose(start, t, x, F, v, a=a, effects=("inertia", "cogging", "offset"),
-                     base_models=(), rules=rules, workers=w) for w in (1, 2)]
-    assert runs[0].final.added == runs[1].final.added and runs[0].final.added
-    keys = ("effects", "sse_train", "held_out_share_removed", "z", "block_gains")
-    assert [{k: r[k] for k in keys} for r in runs[0].trials] == [
-        {k: r[k] for k in keys} for r in runs[1].trials]
