@@ -395,12 +395,10 @@ def _held_words(held: tuple[str, ...], loose: tuple[str, ...]) -> str:
 
 
 def _evaluate_at(problem: _Problem, y, data: Dataset, solver, tol: Tolerances):
-    """Residuals, Jacobian (d resid / d y), force and overflow count at `y`, from one call
-    of the fit's own compiled chunk with a budget of one step: a call's first step only
-    evaluates its start (`MIN_CHUNK`), so no separate program is traced and compiled for
-    the evaluation (one program fewer per model structure: seconds on a CPU)."""
-    out = _run(problem, jnp.asarray(y), np.zeros(np.shape(y)), data, solver, 1, jnp.zeros(()),
-               tol)
+    """Residuals, Jacobian (d resid / d y), force and overflow count at `y`: one step of the
+    fit's own compiled chunk, which only evaluates its start (no other program to trace)."""
+    zero = jnp.zeros(())  # a trust region's size as `solve_chunked` starts it (one program)
+    out = _run(problem, jnp.asarray(y), np.zeros(np.shape(y)), data, solver, 1, zero, tol)
     return out.resid, out.jac, out.force, out.overflow
 
 
@@ -414,9 +412,8 @@ def _with_full_covariance(start: _Problem, y0, y, held: list[int], data: Dataset
     coord = np.isin(start.layout.coordinate_leaf(), held)
     y_full = jnp.asarray(np.where(coord, np.asarray(y0), np.asarray(y)))
     resid, jac, force, overflow = _evaluate_at(start, y_full, data, solver, tol)
-    core = _finish(start, y_full, data, resid, jac, force, overflow, result,
-                   jnp.asarray(steps))
-    return core, start
+    return _finish(start, y_full, data, resid, jac, force, overflow, result,
+                   jnp.asarray(steps)), start
 
 
 def _hold_accepted(free_fit, reason, kind, result, out, held, n_obs: int) -> bool:
@@ -513,7 +510,7 @@ def _solved(start, problem, y0, y, data, out, result, reason, kind, steps, max_s
                                 f"max_steps = {max_steps} reached", "max_steps")
     elif result == optx.RESULTS.successful and kind != "converged":
         result = optx.RESULTS.nonlinear_divergence
-    if held:  # the core of the problem before the hold (its program is compiled already)
+    if held:  # the core of the problem before the hold, whose program is compiled
         core, problem = _with_full_covariance(start, y0, y, held, data, result, steps,
                                               solver, tol)
     else:
