@@ -65,10 +65,7 @@ def test_point_to_point_clean_file_gets_no_effect():
 
 @pytest.mark.parametrize(("truth", "hidden"), [
     ("gms_power", "cogging"),
-    pytest.param("lugre", "offset", marks=pytest.mark.xfail(
-        strict=True, raises=AssertionError,
-        reason="measured: a cogging is added first, then the offset (added: cogging, "
-               "offset)")),
+    ("lugre", "offset"),
 ])
 def test_diagnosis_motion_singles_are_still_found(truth, hidden):
     """Found, possibly after the base model was replaced by a GMS (the truth's family)."""
