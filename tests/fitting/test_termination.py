@@ -129,7 +129,7 @@ import os, sys
 os.sched_setaffinity(0, {int(sys.argv[1])})  # before JAX starts its threads
 import equinox as eqx, jax, numpy as np
 import fitting, jaxfric
-from fitting import _chunked, _fit, _solve
+from fitting import _chunked
 from fitting._refits import _converged
 from jaxfric import paper, trajectories
 t = np.arange(0.0, 10.0, 1e-3)
