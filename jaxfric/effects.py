@@ -369,7 +369,7 @@ class Drift(AbstractEffect):
     @classmethod
     def grid(cls, t, x, v, F):
         """Linear (wear), or settling (a warm-up) over a tenth to twice the record."""
-        span = max(float(t[-1] - t[0]), 1e-9)
+        span = _span(t)
         taus = np.geomspace(span / DRIFT_SPAN_RATIO, 2 * span, 10)
         return [cls(drift_decay=d) for d in (0.0, *(1.0 / taus))]
 
@@ -379,7 +379,7 @@ class Drift(AbstractEffect):
         start-up transient, a base model's mismatch while it first loads), so its
         parameters come from that stretch alone, and a blocked cross-validation holding
         that stretch out cannot judge it."""
-        shortest = max(float(t[-1] - t[0]), 1e-9) / DRIFT_SPAN_RATIO
+        shortest = _span(t) / DRIFT_SPAN_RATIO  # the shortest of `grid`
         decay = abs(float(self.drift_decay))
         if decay * shortest <= 1:
             return ""
@@ -404,6 +404,12 @@ class Drift(AbstractEffect):
                     f"constant {1 / decay:.3g} s (a warm-up)")
         return (f"friction level drifts{start} by {rate} at first, faster with time "
                 f"({1 / -decay:.3g} s)")
+
+
+def _span(t) -> float:
+    """The duration of a record of times `t` (s), which sets a drift's time constants
+    (`Drift.grid` and `Drift.unphysical` alike)."""
+    return max(float(t[-1] - t[0]), 1e-9)
 
 
 def _settling(u: Array) -> Array:
