@@ -141,11 +141,15 @@ def hidden_force(name: str, t, x, v, a, base, level, static=None):
     if name == "quadratic_drag":  # 1.5 N at 20 mm/s, nothing below 5 mm/s
         excess = np.maximum(np.abs(v) - 5e-3, 0.0)
         return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
-    if name == "asymmetry":  # the friction level 6 % higher moving toward +x only
-        # Proportional to the friction force, as a direction-dependent friction level is. (A
-        # constant step, ``c * (v > 0)``, is ``c/2`` of offset plus ``c/2`` more symmetric
-        # friction, sample for sample in sliding: no data can tell it from an offset.)
-        return 0.06 * np.abs(base) * (v > 0)
+    if name == "asymmetry":  # the friction force 6 % larger where it points toward +x
+        # Proportional to the friction force, as a direction-dependent friction level is,
+        # and continuous: a stop holds the force it had, raised too. (Gated by ``v > 0``
+        # instead, the held force dropped by 6 % the instant the motion stopped, with
+        # nothing moving: on records with dwells, an offset while moving and nothing at
+        # rest, which no friction model is. A constant step, ``c * (v > 0)``, is ``c/2``
+        # of offset plus ``c/2`` more symmetric friction, sample for sample in sliding:
+        # no data can tell it from an offset.)
+        return 0.06 * np.maximum(base, 0.0)
     if name == "inertia":  # a mass error: 2 N at the 90th percentile of |a| while accelerating
         typical = np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)
         return 2.0 / typical * a
@@ -215,8 +219,8 @@ def measurement(truth_name: str, hidden: tuple[str, ...] = (), noise: float = 0.
     v = _central(t_fine, x_fine)
     a = _central(t_fine, v)
     # At rest: the fine grid's central difference leaves round-off on a dwell (about 1e-16
-    # m/s), and a hidden effect with sign(v) (a Stribeck hump, an asymmetry, a friction lag)
-    # would act there with a random sign. Below `REST` the truth is at rest.
+    # m/s), and a hidden effect with sign(v) (a Stribeck hump, a friction lag) would act
+    # there with a random sign. Below `REST` the truth is at rest.
     v = np.where(np.abs(v) < REST, 0.0, v)
     if truth_name == "stiction":
         base = stiction_force(t_fine, x_fine, v)

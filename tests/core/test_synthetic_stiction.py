@@ -42,15 +42,33 @@ def test_hidden_effects_on_a_motion_that_never_slides_fast_are_finite():
     assert np.all(np.isfinite(F))
 
 
-@pytest.mark.parametrize("hidden", ["stribeck", "asymmetry", "friction_lag"])
+DWELLS = {"noise": 0.0, "dt": 1e-2, "seed": 3, "motion": "point_to_point", "duration": 30.0,
+          "jitter": 0.1}
+
+
+def _dwells(hidden):
+    """``(F, F0, still)``: the stiction file with `hidden`, without it, and its dwells."""
+    _, x, F = synthetic.measurement("stiction", hidden, **DWELLS)
+    _, _, F0 = synthetic.measurement("stiction", (), **DWELLS)
+    still = np.r_[False, (x[2:] == x[1:-1]) & (x[1:-1] == x[:-2]), False]
+    assert still.sum() > 300  # the dwells
+    return F, F0, still
+
+
+@pytest.mark.parametrize("hidden", ["stribeck", "friction_lag"])
 def test_hidden_effects_with_a_direction_are_zero_at_rest(hidden):
     """A dwell is at rest: a hidden effect with ``sign(v)`` adds nothing there (it acted
     with the random sign of the fine grid's round-off velocity, up to the hump's full 2 N,
     on most of a point-to-point record's dwell samples)."""
-    kw = {"noise": 0.0, "dt": 1e-2, "seed": 3, "motion": "point_to_point",
-          "duration": 30.0, "jitter": 0.1}
-    _, x, F = synthetic.measurement("stiction", (hidden,), **kw)
-    _, _, F0 = synthetic.measurement("stiction", (), **kw)
-    still = np.r_[False, (x[2:] == x[1:-1]) & (x[1:-1] == x[:-2]), False]
-    assert still.sum() > 300  # the dwells
+    F, F0, still = _dwells((hidden,))
     np.testing.assert_array_equal(F[still], F0[still])
+
+
+def test_the_hidden_asymmetry_holds_at_rest_what_it_raised_while_moving():
+    """A direction-dependent friction level scales the force wherever it points toward +x,
+    at rest too: a stop holds the force it had. (Gated by the velocity, the held force
+    dropped by 6 % the instant the motion stopped, with nothing moving.)"""
+    F, F0, still = _dwells(("asymmetry",))
+    np.testing.assert_allclose(F[still], F0[still] + 0.06 * np.maximum(F0[still], 0.0),
+                               rtol=1e-12, atol=1e-12)
+    assert np.sum(F0[still] > 1.0) > 100  # dwells that hold a force toward +x
