@@ -363,6 +363,7 @@ def diagnose(
     folds=None,
     base_models: Sequence[tuple[str, object]] | None = None,
     max_steps: int = 150,
+    max_added: int = 4,
     fixed: Sequence[str] = (),
     model_name: str | None = None,
     derivatives: str = "central",
@@ -402,7 +403,9 @@ def diagnose(
       none); when one is added,
       ``Diagnosis.finding`` says that the base model is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
-    - `max_steps`: per fit. `load`: the transmitted load (N, or N m), for the load effects.
+    - `max_steps`: per fit. `max_added`: at most this many rounds add something (an
+      effect, a pair, or a base model): a budget, like `max_steps`, not a threshold of the
+      rule. `load`: the transmitted load (N, or N m), for the load effects.
     - `derivatives`, `velocity_window`: how the velocity is estimated from the position
       when `v` is not given (``"central"``, ``"savgol"`` or ``"backward"``,
       `fitting._derivatives`), and the acceleration `jaxfric.effects.Inertia` reads by the
@@ -419,7 +422,7 @@ def diagnose(
     ``fitting.run_model(d.final.fit.fit_model, i)`` is run ``i``'s model.
     """
     log = log or (lambda *_: None)
-    rules = DiagnosisRules() if rules is None else rules
+    rules = _rules(rules, max_added)
     full, how, given_v = _inputs(t, x, F, v, a, load, derivatives, velocity_window)
     names_of_runs = list(run_names) if run_names is not None else [
         str(i + 1) for i in range(full.n_runs)]
@@ -459,7 +462,8 @@ def diagnose(
                          else present, rotary, full.load is not None)
     fitter = Fitter(copy, fixed, max_steps, log)
     rounds = select(fitter, model, names, folds, rules,
-                    base_options=lambda: list(base_models), log=log, race=base_full is None)
+                    base_options=lambda: list(base_models), log=log, race=base_full is None,
+                    max_added=max_added)
     masks = _masks(full)
     n_copy = copy.t.size
 
@@ -497,6 +501,13 @@ def diagnose(
                    model_name or type(model).__name__, how,
                    None if given_v else {"method": derivatives, "window_s": velocity_window},
                    log)
+
+
+def _rules(rules: DiagnosisRules | None, max_added: int) -> DiagnosisRules:
+    """`rules` (default `DiagnosisRules()`), the budget `max_added` checked with them."""
+    if max_added < 0:
+        raise ValueError(f"max_added must be >= 0, got {max_added}")
+    return DiagnosisRules() if rules is None else rules
 
 
 def _inputs(t, x, F, v, a, load, derivatives, velocity_window) -> tuple[Data, str, bool]:

@@ -1,7 +1,8 @@
 """`DiagnosisRules`: every threshold of the diagnosis's decision, in one frozen object.
 
 ``fitting.diagnose(..., rules=DiagnosisRules(z=3.0))`` changes one; the decision itself is
-`fitting._select`. Each field is documented here and nowhere else.
+`fitting._select`. Each field is documented here and nowhere else. How far the search goes
+is not a threshold of the rule: `fitting.diagnose`'s ``max_added`` and ``max_steps``.
 """
 
 import dataclasses
@@ -9,7 +10,7 @@ import dataclasses
 
 @dataclasses.dataclass(frozen=True)
 class DiagnosisRules:
-    """The six numbers the diagnosis decides by (`fitting._select`).
+    """The five numbers the diagnosis decides by (`fitting._select`).
 
     - `blocks`: the record is cut into this many contiguous time blocks of equal duration.
       A block is the unit of evidence: the held-out error of the model with and without
@@ -53,21 +54,19 @@ class DiagnosisRules:
       expected optimism ``2 q s^2`` (q added coordinates, ``s^2`` the current model's
       residual variance: what fitting noise removes, not a threshold) and that can qualify
       (physical, converged); when none qualifies, the pairs of those are.
-    - `max_added`: at most this many effects (or base-model changes) are added.
     """
 
     blocks: int = 20
     folds: int = 4
     z: float = 2.0
     tried: int = 3
-    max_added: int = 4
     min_gain: float = 0.01
 
     def __post_init__(self):
         if self.folds < 2 or self.blocks < self.folds:
             raise ValueError(f"need folds >= 2 and blocks >= folds, got folds={self.folds}, "
                              f"blocks={self.blocks}")
-        if self.z <= 0 or self.tried < 1 or self.max_added < 0:
-            raise ValueError("need z > 0, tried >= 1 and max_added >= 0")
+        if self.z <= 0 or self.tried < 1:
+            raise ValueError(f"need z > 0 and tried >= 1, got z={self.z}, tried={self.tried}")
         if not 0 <= self.min_gain < 1:
             raise ValueError(f"need 0 <= min_gain < 1, got min_gain={self.min_gain}")

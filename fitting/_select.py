@@ -56,7 +56,7 @@ the start kept.
    judged where it stopped;
 4. when none qualifies, the pairs of the options tested are refitted and judged the same.
 
-The round repeats until nothing qualifies or `max_added` are in.
+The round repeats until nothing qualifies or `max_added` rounds added something.
 """
 
 import dataclasses
@@ -160,13 +160,14 @@ class Round:
 
 def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: DiagnosisRules,
            base_options: Callable[[], list] = lambda: [], log=None,
-           race: bool = True) -> list[Round]:
+           race: bool = True, max_added: int = 4) -> list[Round]:
     """Forward selection from model `start` (plain) over effect names `candidates` and the
     base models `base_options()` gives (``[(name, ((label, plain model or maker), ...))]``:
     each fitted from every start, the best held-out one kept, `_replaced`);
     see the module docstring. `race`: the base fit races its lag starts; False where the
     caller raced them already (on every sample of a long record) and `start` is the one
-    kept. Returns the rounds; the last round's ``current`` is the final model."""
+    kept. `max_added`: at most this many rounds add something (an effect, a pair or a base
+    model). Returns the rounds; the last round's ``current`` is the final model."""
     log = log or (lambda *_: None)
     data = fitter.data
     names = [n for n in candidates if switchable(n)]
@@ -182,7 +183,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
                      sse=float(np.sum((pred - data.F) ** 2)))
     rounds, switched = [], False
     earlier = {}  # base-model option name -> (start, make, its plain fit of the round before)
-    while len(rounds) < rules.max_added:
+    while len(rounds) < max_added:
         resid = data.F - current.pred
         signals = _signals(data, current.fitted.without_effects())
         options = []
@@ -206,7 +207,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
         best = _admissible([o for o in options if o.sse < current.sse - o.optimism],
                            log)[:rules.tried]
         chosen = _cross_validate(fitter, current, best, folds, rules, log)
-        if chosen is None and len(rounds) + 2 <= rules.max_added:
+        if chosen is None and len(rounds) + 2 <= max_added:
             singles = [o for o in best if not o.base]
             pairs = [(_pair(a, b, current), min(a, b, key=lambda o: o.sse))
                      for a, b in itertools.combinations(singles, 2)]

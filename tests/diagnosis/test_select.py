@@ -2,6 +2,8 @@
 `fitting.diagnose`, `fitting._rules`): its parts on small cases, and one whole
 diagnosis of a Tustin model on a short record (fast: a memoryless base model)."""
 
+import dataclasses
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -310,12 +312,20 @@ def _tustin_record(mass: float, seed: int = 0, duration: float = 20.0):
     return start, t, x, F, v, a
 
 
+def test_how_far_the_search_goes_is_a_budget_of_diagnose_not_a_rule():
+    """`max_added` is `diagnose`'s, as `max_steps` is: not one of the rule's thresholds."""
+    assert "max_added" not in {f.name for f in dataclasses.fields(DiagnosisRules)}
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
+    with pytest.raises(ValueError, match="max_added"):
+        diagnose(start, t, x, F, v, a=a, max_added=-1)
+
+
 def test_diagnose_quick_case():
     """The whole path on a tiny case: one candidate, one round, two folds."""
     start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
-    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1)
     d = diagnose(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
-                    rules=rules)
+                    rules=rules, max_added=1)
     assert d.final.added == ["inertia"]
     assert float(d.model.effects[0].mass) == pytest.approx(4.0, rel=0.05)
     assert d.candidates[0].t_stat >= rules.z
@@ -343,8 +353,8 @@ def test_a_base_model_option_of_several_starts_is_one_option():
     start; a start given alone (a plain model) is one start."""
     start, t, x, F, v, a = _tustin_record(mass=0.0, duration=6.0)
     far = eqx.tree_at(lambda m: m.stribeck.Vs, start, np.float64(1.0))  # a poor start
-    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
-    d = diagnose(start, t, x, F, v, a=a, effects=("offset",), rules=rules,
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1)
+    d = diagnose(start, t, x, F, v, a=a, effects=("offset",), rules=rules, max_added=1,
                  base_models=[("Tustin again", (("far", far), ("near", start))),
                               ("Tustin far", far)])
     base = [tr for tr in d.trials if tr["effects"][0].startswith("Tustin")]
@@ -470,9 +480,9 @@ def test_a_fit_cut_at_its_step_limit_is_no_evidence():
     """The quick case with every fit cut at three steps: the mass's fit on every sample
     has no final values to add, so the mass is not added, and its evidence says why."""
     start, t, x, F, v, a = _tustin_record(mass=4.0, duration=6.0)
-    rules = DiagnosisRules(blocks=8, folds=2, tried=1, max_added=1)
+    rules = DiagnosisRules(blocks=8, folds=2, tried=1)
     d = diagnose(start, t, x, F, v, a=a, effects=("inertia",), base_models=(),
-                 rules=rules, max_steps=3)
+                 rules=rules, max_steps=3, max_added=1)
     assert d.final.added == []
     assert "not converged" in d.candidates[0].evidence
     assert d.trials[0]["converged"] is False
