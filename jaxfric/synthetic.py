@@ -143,12 +143,10 @@ def hidden_force(name: str, t, x, v, a, base, level, static=None):
         return 1.5 * np.sign(v) * (excess / 15e-3) ** 2
     if name == "asymmetry":  # the friction force 6 % larger where it points toward +x
         # Proportional to the friction force, as a direction-dependent friction level is,
-        # and continuous: a stop holds the force it had, raised too. (Gated by ``v > 0``
-        # instead, the held force dropped by 6 % the instant the motion stopped, with
-        # nothing moving: on records with dwells, an offset while moving and nothing at
-        # rest, which no friction model is. A constant step, ``c * (v > 0)``, is ``c/2``
-        # of offset plus ``c/2`` more symmetric friction, sample for sample in sliding:
-        # no data can tell it from an offset.)
+        # and continuous: a stop holds the force it had, raised too (a force cannot change
+        # while nothing moves). A constant step, ``c * (v > 0)``, would be ``c/2`` of
+        # offset plus ``c/2`` more symmetric friction, sample for sample in sliding: no
+        # data could tell it from an offset.
         return 0.06 * np.maximum(base, 0.0)
     if name == "inertia":  # a mass error: 2 N at the 90th percentile of |a| while accelerating
         typical = np.quantile(np.abs(a)[np.abs(a) > 0.01 * np.abs(a).max()], 0.9)

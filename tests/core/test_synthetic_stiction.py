@@ -66,8 +66,7 @@ def test_hidden_effects_with_a_direction_are_zero_at_rest(hidden):
 
 def test_the_hidden_asymmetry_holds_at_rest_what_it_raised_while_moving():
     """A direction-dependent friction level scales the force wherever it points toward +x,
-    at rest too: a stop holds the force it had. (Gated by the velocity, the held force
-    dropped by 6 % the instant the motion stopped, with nothing moving.)"""
+    at rest too: a stop holds the force it had, so no force changes while nothing moves."""
     F, F0, still = _dwells(("asymmetry",))
     np.testing.assert_allclose(F[still], F0[still] + 0.06 * np.maximum(F0[still], 0.0),
                                rtol=1e-12, atol=1e-12)
