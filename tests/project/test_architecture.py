@@ -90,3 +90,15 @@ def test_every_program_is_compiled_with_jaxfrics_options():
                     isinstance(node.value, ast.Name) and node.value.id in ("jax", "eqx"):
                 bare.setdefault(str(p.relative_to(ROOT)), []).append(node.lineno)
     assert not bare, f"compiled without jaxfric._compile.jit: {bare}"
+
+
+def test_the_command_line_starts_without_the_heaviest_imports():
+    """Every command pays its imports before any work: the command line and both packages
+    load without scipy.stats (whose distributions cost more than half a second; the
+    chi-square quantiles the fits need come from scipy.special) and without matplotlib
+    (imported by the commands that plot, when they plot)."""
+    code = ("import sys, fitting.cli.main, jaxfric; "
+            "print(sorted(m for m in ('scipy.stats', 'matplotlib') if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                         text=True)
+    assert run.returncode == 0 and run.stdout.strip() == "[]", run.stdout + run.stderr
