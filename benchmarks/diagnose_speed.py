@@ -14,8 +14,15 @@ threads: divided by the wall time, the cores it kept busy). Each pair of runs is
 `--repeats` times, each time with a new empty cache; the table gives the medians (the
 machine is noisy), the JSON every run.
 
+The same machine runs the same code 1.5x slower at some hours than at others, so a time
+alone says little: ``--against DIR`` (a checkout of another commit, e.g.
+``git worktree add --detach /tmp/old 6ca9f68``, the code the 60 s goal was set against,
+when it took 41-52 s) runs that code's ``jaxfric diagnose`` on the same file beside this
+code's, alternately, each with its own new cache, and the table gives the ratio of the
+medians, this code's over that code's.
+
     python benchmarks/diagnose_speed.py [--sizes 1e4,1e5] [--repeats 3] [--json OUT.json]
-        [--note "what else ran"] [--caches empty,filled]
+        [--note "what else ran"] [--caches empty,filled] [--against DIR]
 
 Prints a table and writes JSON (default benchmarks/diagnose_speed.json).
 """
@@ -51,12 +58,18 @@ def _file(folder: Path, n: int) -> Path:
     return path
 
 
-def _run(path: Path, cache: Path, out: Path) -> dict:
+def _run(path: Path, cache: Path, out: Path, code: Path | None = None) -> dict:
+    """One ``jaxfric diagnose`` of `path` in a fresh process, with the compilation cache
+    `cache`; `code`: a checkout whose ``fitting`` and ``jaxfric`` are run instead of the
+    installed ones."""
     env = {**os.environ, "JAXFRIC_CACHE_DIR": str(cache)}
+    if code is not None:
+        env["PYTHONPATH"] = str(code)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "fitting.cli", "diagnose", str(path), "--json",
-                        str(out)], capture_output=True, text=True, env=env, timeout=3600)
+                        str(out)], capture_output=True, text=True, env=env, timeout=3600,
+                       cwd=code)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -73,20 +86,31 @@ def _medians(runs: list[dict]) -> list[dict]:
     runs, the fastest and slowest wall time, and the effects added (every run must
     agree)."""
     rows = []
-    for key in dict.fromkeys((r["samples"], r["cache"]) for r in runs):
-        group = [r for r in runs if (r["samples"], r["cache"]) == key]
+    def key_of(r):
+        return r["samples"], r["cache"], r.get("code", "this")
+
+    for key in dict.fromkeys(map(key_of, runs)):
+        group = [r for r in runs if key_of(r) == key]
         added = {tuple(r["added"]) for r in group}
         if len(added) > 1:
             raise RuntimeError(f"runs of {key[0]} samples added different effects: {added}")
         inner = [r["diagnosis_s"] for r in group if r["diagnosis_s"] is not None]
         walls = [r["wall_s"] for r in group]
-        rows.append({"samples": key[0], "cache": key[1], "runs": len(group),
+        rows.append({"samples": key[0], "cache": key[1], "code": key[2], "runs": len(group),
                      "wall_s": float(np.median(walls)), "wall_min_s": min(walls),
                      "wall_max_s": max(walls),
                      "diagnosis_s": float(np.median(inner)) if inner else None,
                      "cpu_s": float(np.median([r["cpu_s"] for r in group])),
                      "added": group[0]["added"]})
     return rows
+
+
+def _ratios(rows: list[dict]) -> list[dict]:
+    """Per size and cache state run by both codes: this code's median wall time over the
+    other's."""
+    med = {(r["samples"], r["cache"], r["code"]): r["wall_s"] for r in rows}
+    return [{"samples": n, "cache": c, "ratio": med[(n, c, "this")] / med[(n, c, "against")]}
+            for (n, c, code) in med if code == "this" and (n, c, "against") in med]
 
 
 def main(argv=None) -> int:
@@ -98,7 +122,15 @@ def main(argv=None) -> int:
     ap.add_argument("--note", default="", help="a note kept in the JSON (e.g. the load)")
     ap.add_argument("--caches", default="empty,filled",
                     help="the cache states run, in order (default %(default)s)")
+    ap.add_argument("--against", type=Path, default=None,
+                    help="a checkout of another commit, run beside this code (module "
+                         "docstring)")
     args = ap.parse_args(argv)
+    codes = {"this": None}
+    if args.against is not None:
+        if not (args.against / "fitting" / "cli").is_dir():
+            ap.error(f"--against {args.against}: not a jaxfric checkout (no fitting/cli)")
+        codes["against"] = args.against.resolve()
     sizes = [int(float(s)) for s in args.sizes.split(",")]
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -107,23 +139,33 @@ def main(argv=None) -> int:
             path = _file(folder, n)
             samples = sum(1 for _ in path.open()) - 1
             for k in range(args.repeats):
-                cache = folder / f"cache_{n}_{k}"
-                for cache_state in args.caches.split(","):
-                    print(f"diagnosing {samples} samples, compilation cache {cache_state} "
-                          f"(run {k + 1} of {args.repeats}) ...", flush=True)
-                    r = _run(path, cache, folder / f"d_{n}.json")
-                    runs.append({"samples": samples, "cache": cache_state, **r})
-                    print(f"  {r['wall_s']:.1f} s", flush=True)
+                # alternately first, so that a drift of the machine's speed hits both
+                order = list(codes.items())[::1 if k % 2 == 0 else -1]
+                for name, code in order:
+                    cache = folder / f"cache_{n}_{k}_{name}"
+                    for cache_state in args.caches.split(","):
+                        print(f"diagnosing {samples} samples with {name} code, compilation "
+                              f"cache {cache_state} (run {k + 1} of {args.repeats}) ...",
+                              flush=True)
+                        r = _run(path, cache, folder / f"d_{n}.json", code)
+                        runs.append({"samples": samples, "cache": cache_state, "code": name,
+                                     **r})
+                        print(f"  {r['wall_s']:.1f} s", flush=True)
     rows = _medians(runs)
-    print(f"\n{'samples':>8} {'cache':>7} {'runs':>5} {'wall [s]':>9} {'min..max':>13} "
-          f"{'diagnosis [s]':>14} {'CPU [s]':>8} {'cores':>6}  added")
+    print(f"\n{'samples':>8} {'cache':>7} {'code':>8} {'runs':>5} {'wall [s]':>9} "
+          f"{'min..max':>13} {'diagnosis [s]':>14} {'CPU [s]':>8} {'cores':>6}  added")
     for r in rows:
-        print(f"{r['samples']:>8} {r['cache']:>7} {r['runs']:>5} {r['wall_s']:>9.1f} "
+        print(f"{r['samples']:>8} {r['cache']:>7} {r['code']:>8} {r['runs']:>5} "
+              f"{r['wall_s']:>9.1f} "
               f"{r['wall_min_s']:>6.1f}..{r['wall_max_s']:<6.1f}"
               f"{r['diagnosis_s'] if r['diagnosis_s'] is not None else float('nan'):>14.1f}"
               f"{r['cpu_s']:>9.1f} {r['cpu_s'] / r['wall_s']:>6.2f}"
               f"  {' + '.join(r['added']) or '-'}")
-    big = [r for r in rows if abs(r["samples"] - 1e5) <= 5e3]
+    ratios = _ratios(rows)
+    for r in ratios:
+        print(f"{r['samples']} samples, cache {r['cache']}: this code's median wall time is "
+              f"{r['ratio']:.2f} x that of {args.against}")
+    big = [r for r in rows if abs(r["samples"] - 1e5) <= 5e3 and r["code"] == "this"]
     if big:
         print("\ngoal: 1e5 samples in <= 60 s (median): " + ", ".join(
             f"cache {r['cache']} {r['wall_s']:.0f} s "
@@ -135,6 +177,7 @@ def main(argv=None) -> int:
            "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"),
            "command": "python benchmarks/diagnose_speed.py " + " ".join(argv or sys.argv[1:]),
            "goal_s_at_1e5": GOAL_S, "repeats": args.repeats, "rows": rows, "runs": runs,
+           **({"against": str(args.against), "ratios": ratios} if ratios else {}),
            **({"note": args.note} if args.note else {}),
            "load_average_end": list(os.getloadavg())}
     Path(args.json).write_text(json.dumps(out, indent=2) + "\n")

@@ -400,7 +400,7 @@ def section_c_step(d: dict) -> list[str]:
 
 def section_diagnose_speed(d: dict) -> list[str]:
     goal = d.get("goal_s_at_1e5", 60.0)
-    big = [r for r in d["rows"] if r["samples"] >= 0.9e5]
+    big = [r for r in d["rows"] if r["samples"] >= 0.9e5 and r.get("code", "this") == "this"]
     if d.get("goals"):  # a script that judges its own goals
         goals = _goal_rows(d["goals"])
     else:
@@ -411,6 +411,10 @@ def section_diagnose_speed(d: dict) -> list[str]:
         "in a fresh process, with an empty compilation cache, then with the one that run "
         "filled (medians of "
         f"{d.get('repeats', '?')} runs).", goals_table(goals),
+        *([f"Side by side with `{d['against']}`, alternately, in the same hour: this "
+           "code's median wall time is " + ", ".join(
+               f"{r['ratio']:.2f} x that code's ({r['samples']} samples, {r['cache']} cache)"
+               for r in d["ratios"]) + "."] if d.get("ratios") else []),
         command("python benchmarks/diagnose_speed.py"), machine_line(d)]
 
 

@@ -110,6 +110,25 @@ def test_diagnose_speed_medians():
         _medians([run("empty", 1.0), run("empty", 2.0, ())])
 
 
+def test_diagnose_speed_compares_the_medians_of_two_codes_run_side_by_side():
+    """``--against``: a row per code, and the ratio of this code's median to the other's
+    for each size and cache state both ran."""
+    from benchmarks.diagnose_speed import _medians, _ratios
+
+    def run(code, cache, wall):
+        return {"samples": 100, "cache": cache, "code": code, "wall_s": wall,
+                "diagnosis_s": wall - 1, "cpu_s": wall, "added": []}
+
+    runs = [run("this", "empty", 6.0), run("against", "empty", 4.0),
+            run("this", "empty", 8.0), run("against", "empty", 5.0),
+            run("this", "empty", 7.0), run("against", "empty", 40.0),
+            run("this", "filled", 3.0)]
+    rows = _medians(runs)
+    assert [(r["code"], r["cache"], r["wall_s"]) for r in rows] == [
+        ("this", "empty", 7.0), ("against", "empty", 5.0), ("this", "filled", 3.0)]
+    assert _ratios(rows) == [{"samples": 100, "cache": "empty", "ratio": 7.0 / 5.0}]
+
+
 @pytest.mark.slow
 def test_compiler_options_compares_both_settings(tmp_path):
     out = tmp_path / "options.json"
