@@ -57,9 +57,9 @@ def _dwells(hidden):
 
 @pytest.mark.parametrize("hidden", ["stribeck", "friction_lag"])
 def test_hidden_effects_with_a_direction_are_zero_at_rest(hidden):
-    """A dwell is at rest: a hidden effect with ``sign(v)`` adds nothing there (it acted
-    with the random sign of the fine grid's round-off velocity, up to the hump's full 2 N,
-    on most of a point-to-point record's dwell samples)."""
+    """A dwell is at rest: a hidden effect with ``sign(v)`` adds nothing there, not even
+    with the sign of the fine grid's round-off velocity (up to a hump's full 2 N on a
+    point-to-point record's dwells, if it did)."""
     F, F0, still = _dwells((hidden,))
     np.testing.assert_array_equal(F[still], F0[still])
 

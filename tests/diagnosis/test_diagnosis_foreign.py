@@ -128,7 +128,13 @@ def test_the_effect_found_does_not_depend_on_the_base_model(name):
 OTHER_TRUTHS = ("lugre", "two_state_power")
 
 #: (truth, hidden effect) -> what the diagnosis does instead (measured).
-OTHER_FAILURES: dict[tuple[str, str], str] = {}
+OTHER_FAILURES: dict[tuple[str, str], str] = {
+    ("lugre", "quadratic_drag"): (
+        "absorbed (as the bench counts it): on this motion the two-state model takes the "
+        "hidden drag in whole, its fit with the drag reaching 0.5091 N RMS against the "
+        "clean twin's 0.5095 N; the drag's refit removes nothing and its coefficient goes "
+        "negative (not physical), so nothing is there to name"),
+}
 
 
 @functools.cache
@@ -139,7 +145,16 @@ def run_truth(truth: str, hidden: tuple[str, ...], seed: int):
 
 
 #: (truth, pair) -> what the diagnosis does instead (measured).
-OTHER_PAIR_FAILURES: dict[tuple[str, tuple[str, str]], str] = {}
+OTHER_PAIR_FAILURES: dict[tuple[str, tuple[str, str]], str] = {
+    ("lugre", ("quadratic_drag", "drift")): (
+        "the drag absorbed as on its own (its refit's coefficient -1.35 N s^2/m^2, not "
+        "physical); drift + position_dependence added instead (held out 30 % of the SSE, "
+        "z = 3.88), 0.6772 -> 0.5657 N held out"),
+    ("lugre", ("friction_lag", "offset")): (
+        "offset added (z = 10.4), then nothing: the friction lag's refits are not physical "
+        "(lag gain 44.7, time constant 2.9 ms) where the LuGre's first loading, which the "
+        "two-state model does not follow, dominates the mismatch"),
+}
 
 
 @pytest.mark.parametrize(("truth", "pair"), [(tr, p) for tr in OTHER_TRUTHS for p in PAIRS],
