@@ -19,10 +19,13 @@ alone says little: ``--against DIR`` (a checkout of another commit, e.g.
 ``git worktree add --detach /tmp/old 6ca9f68``, the code the 60 s goal was set against,
 when it took 41-52 s) runs that code's ``jaxfric diagnose`` on the same file beside this
 code's, alternately, each with its own new cache, and the table gives the ratio of the
-medians, this code's over that code's.
+medians, this code's over that code's, and that ratio times the medians that code's own
+``benchmarks/diagnose_speed.json`` holds: this code's time at the machine's speed then.
+``--summarise JSON`` makes the table and JSON again from a JSON's runs, without running.
 
     python benchmarks/diagnose_speed.py [--sizes 1e4,1e5] [--repeats 3] [--json OUT.json]
         [--note "what else ran"] [--caches empty,filled] [--against DIR]
+        [--summarise JSON]
 
 Prints a table and writes JSON (default benchmarks/diagnose_speed.json).
 """
@@ -105,12 +108,81 @@ def _medians(runs: list[dict]) -> list[dict]:
     return rows
 
 
-def _ratios(rows: list[dict]) -> list[dict]:
+def _ratios(rows: list[dict], then: dict | None = None) -> list[dict]:
     """Per size and cache state run by both codes: this code's median wall time over the
-    other's."""
+    other's; with `then` (`_then`: the other code's own committed medians), that ratio
+    times its committed median, ``scaled_s``: this code's time at the machine's speed
+    when those were measured."""
     med = {(r["samples"], r["cache"], r["code"]): r["wall_s"] for r in rows}
-    return [{"samples": n, "cache": c, "ratio": med[(n, c, "this")] / med[(n, c, "against")]}
-            for (n, c, code) in med if code == "this" and (n, c, "against") in med]
+    out = []
+    for n, c, code in med:
+        if code != "this" or (n, c, "against") not in med:
+            continue
+        r = {"samples": n, "cache": c, "ratio": med[(n, c, "this")] / med[(n, c, "against")]}
+        if then and (n, c) in then["wall_s"]:
+            r |= {"then_s": then["wall_s"][(n, c)],
+                  "scaled_s": r["ratio"] * then["wall_s"][(n, c)]}
+        out.append(r)
+    return out
+
+
+def _then(code: Path) -> dict | None:
+    """The commit of the checkout `code` and the medians its own
+    benchmarks/diagnose_speed.json holds (``{(samples, cache): wall_s}``), or None."""
+    path = code / "benchmarks" / "diagnose_speed.json"
+    if not path.is_file():
+        return None
+    rows = json.loads(path.read_text())["rows"]
+    commit = subprocess.run(["git", "-C", str(code), "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    return {"commit": commit, "wall_s": {(r["samples"], r["cache"]): r["wall_s"]
+                                         for r in rows if r.get("code", "this") == "this"}}
+
+
+def _measure(args, codes: dict) -> list[dict]:
+    """Every run: each size, repeat, code (alternately first, so that a drift of the
+    machine's speed hits both) and cache state."""
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for n in [int(float(s)) for s in args.sizes.split(",")]:
+            path = _file(folder, n)
+            samples = sum(1 for _ in path.open()) - 1
+            for k in range(args.repeats):
+                for name, code in list(codes.items())[::1 if k % 2 == 0 else -1]:
+                    cache = folder / f"cache_{n}_{k}_{name}"
+                    for cache_state in args.caches.split(","):
+                        print(f"diagnosing {samples} samples with {name} code, compilation "
+                              f"cache {cache_state} (run {k + 1} of {args.repeats}) ...",
+                              flush=True)
+                        r = _run(path, cache, folder / f"d_{n}.json", code)
+                        runs.append({"samples": samples, "cache": cache_state, "code": name,
+                                     **r})
+                        print(f"  {r['wall_s']:.1f} s", flush=True)
+    return runs
+
+
+def _table(rows: list[dict], ratios: list[dict], against) -> None:
+    print(f"\n{'samples':>8} {'cache':>7} {'code':>8} {'runs':>5} {'wall [s]':>9} "
+          f"{'min..max':>13} {'diagnosis [s]':>14} {'CPU [s]':>8} {'cores':>6}  added")
+    for r in rows:
+        print(f"{r['samples']:>8} {r['cache']:>7} {r.get('code', 'this'):>8} {r['runs']:>5} "
+              f"{r['wall_s']:>9.1f} "
+              f"{r['wall_min_s']:>6.1f}..{r['wall_max_s']:<6.1f}"
+              f"{r['diagnosis_s'] if r['diagnosis_s'] is not None else float('nan'):>14.1f}"
+              f"{r['cpu_s']:>9.1f} {r['cpu_s'] / r['wall_s']:>6.2f}"
+              f"  {' + '.join(r['added']) or '-'}")
+    for r in ratios:
+        print(f"{r['samples']} samples, cache {r['cache']}: this code's median wall time is "
+              f"{r['ratio']:.2f} x that of {against}"
+              + (f"; times its own committed {r['then_s']:.1f} s: {r['scaled_s']:.1f} s "
+                 f"({'met' if r['scaled_s'] <= GOAL_S else 'MISSED'})" if "scaled_s" in r
+                 else ""))
+    big = [r for r in rows if abs(r["samples"] - 1e5) <= 5e3 and r.get("code") == "this"]
+    if big:
+        print("\ngoal: 1e5 samples in <= 60 s (median): " + ", ".join(
+            f"cache {r['cache']} {r['wall_s']:.0f} s "
+            f"({'met' if r['wall_s'] <= GOAL_S else 'MISSED'})" for r in big))
 
 
 def main(argv=None) -> int:
@@ -125,61 +197,36 @@ def main(argv=None) -> int:
     ap.add_argument("--against", type=Path, default=None,
                     help="a checkout of another commit, run beside this code (module "
                          "docstring)")
+    ap.add_argument("--summarise", type=Path, default=None,
+                    help="no runs: the table and JSON again from this JSON's runs (with "
+                         "--against, the ratios scaled by that checkout's own timings)")
     args = ap.parse_args(argv)
     codes = {"this": None}
     if args.against is not None:
         if not (args.against / "fitting" / "cli").is_dir():
             ap.error(f"--against {args.against}: not a jaxfric checkout (no fitting/cli)")
         codes["against"] = args.against.resolve()
-    sizes = [int(float(s)) for s in args.sizes.split(",")]
-    runs = []
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        for n in sizes:
-            path = _file(folder, n)
-            samples = sum(1 for _ in path.open()) - 1
-            for k in range(args.repeats):
-                # alternately first, so that a drift of the machine's speed hits both
-                order = list(codes.items())[::1 if k % 2 == 0 else -1]
-                for name, code in order:
-                    cache = folder / f"cache_{n}_{k}_{name}"
-                    for cache_state in args.caches.split(","):
-                        print(f"diagnosing {samples} samples with {name} code, compilation "
-                              f"cache {cache_state} (run {k + 1} of {args.repeats}) ...",
-                              flush=True)
-                        r = _run(path, cache, folder / f"d_{n}.json", code)
-                        runs.append({"samples": samples, "cache": cache_state, "code": name,
-                                     **r})
-                        print(f"  {r['wall_s']:.1f} s", flush=True)
+    old = json.loads(args.summarise.read_text()) if args.summarise else {}
+    runs = old["runs"] if old else _measure(args, codes)
+    then = _then(args.against) if args.against is not None else None
     rows = _medians(runs)
-    print(f"\n{'samples':>8} {'cache':>7} {'code':>8} {'runs':>5} {'wall [s]':>9} "
-          f"{'min..max':>13} {'diagnosis [s]':>14} {'CPU [s]':>8} {'cores':>6}  added")
-    for r in rows:
-        print(f"{r['samples']:>8} {r['cache']:>7} {r['code']:>8} {r['runs']:>5} "
-              f"{r['wall_s']:>9.1f} "
-              f"{r['wall_min_s']:>6.1f}..{r['wall_max_s']:<6.1f}"
-              f"{r['diagnosis_s'] if r['diagnosis_s'] is not None else float('nan'):>14.1f}"
-              f"{r['cpu_s']:>9.1f} {r['cpu_s'] / r['wall_s']:>6.2f}"
-              f"  {' + '.join(r['added']) or '-'}")
-    ratios = _ratios(rows)
-    for r in ratios:
-        print(f"{r['samples']} samples, cache {r['cache']}: this code's median wall time is "
-              f"{r['ratio']:.2f} x that of {args.against}")
-    big = [r for r in rows if abs(r["samples"] - 1e5) <= 5e3 and r["code"] == "this"]
-    if big:
-        print("\ngoal: 1e5 samples in <= 60 s (median): " + ", ".join(
-            f"cache {r['cache']} {r['wall_s']:.0f} s "
-            f"({'met' if r['wall_s'] <= GOAL_S else 'MISSED'})" for r in big))
+    ratios = _ratios(rows, then)
+    _table(rows, ratios, args.against)
     sys.path.insert(0, str(HERE.parent))
     from benchmarks.machine import machine_facts
 
-    out = {"machine": machine_facts(),
-           "date_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M"),
-           "command": "python benchmarks/diagnose_speed.py " + " ".join(argv or sys.argv[1:]),
-           "goal_s_at_1e5": GOAL_S, "repeats": args.repeats, "rows": rows, "runs": runs,
-           **({"against": str(args.against), "ratios": ratios} if ratios else {}),
-           **({"note": args.note} if args.note else {}),
-           "load_average_end": list(os.getloadavg())}
+    command = "python benchmarks/diagnose_speed.py " + " ".join(argv or sys.argv[1:])
+    out = {"machine": old.get("machine") or machine_facts(),
+           "date_utc": old.get("date_utc") or datetime.now(timezone.utc).strftime(
+               "%Y-%m-%d %H:%M"),
+           "command": old.get("command", command),
+           **({"summarised_by": command} if old else {}),
+           "goal_s_at_1e5": GOAL_S, "repeats": old.get("repeats", args.repeats),
+           "rows": rows, "runs": runs,
+           **({"against": then["commit"] if then else str(args.against),
+               "ratios": ratios} if ratios else {}),
+           **({"note": args.note or old.get("note")} if args.note or old.get("note") else {}),
+           "load_average_end": old.get("load_average_end") or list(os.getloadavg())}
     Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
     print(f"wrote {args.json}")
     return 0

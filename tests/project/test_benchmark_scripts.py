@@ -127,6 +127,10 @@ def test_diagnose_speed_compares_the_medians_of_two_codes_run_side_by_side():
     assert [(r["code"], r["cache"], r["wall_s"]) for r in rows] == [
         ("this", "empty", 7.0), ("against", "empty", 5.0), ("this", "filled", 3.0)]
     assert _ratios(rows) == [{"samples": 100, "cache": "empty", "ratio": 7.0 / 5.0}]
+    # scaled by the other code's own committed median: this code's time then
+    then = {"commit": "abc1234", "wall_s": {(100, "empty"): 2.5, (100, "filled"): 1.0}}
+    assert _ratios(rows, then) == [{"samples": 100, "cache": "empty", "ratio": 7.0 / 5.0,
+                                    "then_s": 2.5, "scaled_s": 2.5 * 7.0 / 5.0}]
 
 
 @pytest.mark.slow
