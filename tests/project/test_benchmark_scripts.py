@@ -244,3 +244,21 @@ def test_diagnosis_bench_summary_counts(tmp_path):
                                                   "absorbed": 1, "instead": {"nothing": 1}}
     assert c10["by_pair"]["offset + drift"] == {"files": 1, "both_found": 1}
     assert [r["date_utc"] for r in c10["runs"]] == ["2030-01-01", "2030-01-02"]
+
+
+def test_diagnose_speed_summarise_remakes_the_table_from_recorded_runs(tmp_path, capsys):
+    """``--summarise``: no diagnosis runs; the rows come from the recorded runs, the
+    run's own date, command and machine are kept and the summarising command is added."""
+    from benchmarks.diagnose_speed import main
+
+    runs = [{"samples": 100, "cache": c, "code": "this", "wall_s": w, "diagnosis_s": w - 1,
+             "cpu_s": w, "added": ["cogging"]} for c, w in (("empty", 9.0), ("empty", 7.0))]
+    recorded = tmp_path / "recorded.json"
+    recorded.write_text(json.dumps({"runs": runs, "date_utc": "then", "command": "run",
+                                    "machine": {"cpu": "x"}, "repeats": 2}))
+    out = tmp_path / "out.json"
+    assert main(["--summarise", str(recorded), "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert [(r["cache"], r["wall_s"], r["runs"]) for r in data["rows"]] == [("empty", 8.0, 2)]
+    assert (data["date_utc"], data["command"], data["machine"]) == ("then", "run", {"cpu": "x"})
+    assert "--summarise" in data["summarised_by"] and "wall [s]" in capsys.readouterr().out
