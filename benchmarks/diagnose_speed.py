@@ -88,10 +88,10 @@ def _medians(runs: list[dict]) -> list[dict]:
     """One row per size and cache state: the median wall, diagnosis and CPU times of its
     runs, the fastest and slowest wall time, and the effects added (every run must
     agree)."""
-    rows = []
     def key_of(r):
         return r["samples"], r["cache"], r.get("code", "this")
 
+    rows = []
     for key in dict.fromkeys(map(key_of, runs)):
         group = [r for r in runs if key_of(r) == key]
         added = {tuple(r["added"]) for r in group}

@@ -130,9 +130,9 @@ OTHER_TRUTHS = ("lugre", "two_state_power")
 #: (truth, hidden effect) -> what the diagnosis does instead (measured).
 OTHER_FAILURES: dict[tuple[str, str], str] = {
     ("lugre", "quadratic_drag"): (
-        "absorbed (as the bench counts it): on this motion the two-state model takes the "
-        "hidden drag in whole, its fit with the drag reaching 0.5091 N RMS against the "
-        "clean twin's 0.5095 N; the drag's refit removes nothing and its coefficient goes "
+        "absorbed: on this motion the two-state model takes the hidden drag in whole (its "
+        "fit of this file reaches 0.5091 N RMS, of the clean twin, same motion and noise, "
+        "0.5095 N); a refit with the drag removes nothing and its coefficient goes "
         "negative (not physical), so nothing is there to name"),
 }
 
