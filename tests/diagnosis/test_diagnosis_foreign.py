@@ -141,8 +141,8 @@ OTHER_FAILURES: dict[tuple[str, str], str] = {
         "model does not follow (0.667 N held out against 0.03 N of noise), sets the spread"),
     ("lugre", "friction_lag"): (
         "the GMS added (the base model is the limit here, z = 3.01), then nothing: the "
-        "friction lag's refit is not physical (lag gain -0.39, from the two-state model and "
-        "from the GMS), the LuGre's first loading dominating the mismatch"),
+        "friction lag's refit is not physical (lag gain -0.39), the LuGre's first loading "
+        "dominating the mismatch"),
 }
 
 
