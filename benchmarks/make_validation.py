@@ -77,11 +77,13 @@ def _find(d: dict, *keys):
 
 
 def machine_line(d: dict) -> str:
-    cpu = _find(d, "cpu") or "CPU not recorded"
+    cpu = _find(d, "cpu")
     cores = _find(d, "usable_cores", "logical_cores", "cores", "cpus", "cpu_count")
     date = _find(d, "date_utc")
-    return (f"Machine: {cpu}, {cores or '?'} cores; "
-            + (f"run {date} UTC." if date else "date of the run not recorded in the JSON."))
+    missing = " and ".join(w for w, v in (("CPU", cpu), ("date", date)) if not v)
+    return (f"Machine: {cpu + ', ' if cpu else ''}{cores or '?'} cores"
+            + (f"; run {date} UTC" if date else "")
+            + (f"; {missing} not recorded." if missing else "."))
 
 
 def _percent(v, spec=".0f") -> str:
