@@ -116,9 +116,12 @@ def find_compiler() -> str | None:
 
 
 def cache_dir() -> Path:
-    """Where built kernels are kept (module docstring)."""
-    if os.environ.get("JAXFRIC_CACHE_DIR"):
-        return Path(os.environ["JAXFRIC_CACHE_DIR"])
+    """Where built kernels are kept (module docstring). ``JAXFRIC_CACHE_DIR`` empty or
+    ``0`` turns off the compilation cache (`jaxfric.enable_compilation_cache`), not the
+    kernel, which then goes to the default folder (not to a folder named ``0``)."""
+    env = os.environ.get("JAXFRIC_CACHE_DIR", "")
+    if env not in ("", "0"):
+        return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base) / "jaxfric"
 

@@ -254,6 +254,19 @@ def test_no_compiler_falls_back_with_one_line(monkeypatch, tmp_path, caplog):
     jax.clear_caches()
 
 
+@pytest.mark.parametrize("value", ["", "0"])
+def test_a_cache_variable_that_turns_the_cache_off_keeps_the_kernel_in_the_default_folder(
+        monkeypatch, tmp_path, value):
+    """``JAXFRIC_CACHE_DIR`` empty or ``0`` means no compilation cache
+    (`jaxfric.enable_compilation_cache`); the kernel still needs a folder, the default one,
+    not ``./0`` in whatever folder the process runs in."""
+    monkeypatch.setenv("JAXFRIC_CACHE_DIR", value)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert _kernel.cache_dir() == tmp_path / "jaxfric"
+    monkeypatch.setenv("JAXFRIC_CACHE_DIR", str(tmp_path / "mine"))
+    assert _kernel.cache_dir() == tmp_path / "mine"
+
+
 def test_kernel_is_the_default_on_cpu(monkeypatch):
     monkeypatch.delenv(_kernel.ENV, raising=False)
     x = jnp.zeros(3)
