@@ -33,10 +33,24 @@ def x64_enabled() -> bool:
     return bool(jax.config.jax_enable_x64)
 
 
+def cache_home() -> Path:
+    """jaxfric's folder for what it builds: ``$XDG_CACHE_HOME/jaxfric``, or
+    ``~/.cache/jaxfric``."""
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxfric"
+
+
+def cache_env() -> str | None:
+    """The folder ``JAXFRIC_CACHE_DIR`` names, or None: unset, or empty or ``0``, which turn
+    the compilation cache off (`enable_compilation_cache`); what else is kept there (the
+    compiled kernels, `jaxfric._kernel.cache_dir`) then goes under `cache_home`."""
+    env = os.environ.get("JAXFRIC_CACHE_DIR")
+    return None if env in (None, "", "0") else env
+
+
 def default_cache_dir() -> Path:
     """``$XDG_CACHE_HOME/jaxfric/xla``, or ``~/.cache/jaxfric/xla``."""
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "jaxfric" / "xla"
+    return cache_home() / "xla"
 
 
 #: Programs that took at least this long to compile (s) are kept on disk (JAX: 1 s).
@@ -71,10 +85,9 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
         current = jax.config.jax_compilation_cache_dir
         if current:
             return Path(current)
-        env = os.environ.get("JAXFRIC_CACHE_DIR")
-        if env is not None and env in ("", "0"):
-            return None
-        path = Path(env) if env else default_cache_dir()
+        if os.environ.get("JAXFRIC_CACHE_DIR") is not None and cache_env() is None:
+            return None  # set, empty or 0: off
+        path = Path(cache_env() or default_cache_dir())
     path = Path(path).expanduser()
     try:
         path.mkdir(parents=True, exist_ok=True)

@@ -55,6 +55,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxfric._config import cache_env, cache_home
+
 
 TARGET = "jaxfric_event_pass"
 SYMBOL = "JaxfricEventPass"
@@ -116,14 +118,9 @@ def find_compiler() -> str | None:
 
 
 def cache_dir() -> Path:
-    """Where built kernels are kept (module docstring). ``JAXFRIC_CACHE_DIR`` empty or
-    ``0`` turns off the compilation cache (`jaxfric.enable_compilation_cache`), not the
-    kernel, which then goes to the default folder (not to a folder named ``0``)."""
-    env = os.environ.get("JAXFRIC_CACHE_DIR", "")
-    if env not in ("", "0"):
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "jaxfric"
+    """Where built kernels are kept (module docstring): the folder ``JAXFRIC_CACHE_DIR``
+    names, else (also when it turns the compilation cache off) `jaxfric._config.cache_home`."""
+    return Path(cache_env() or cache_home())
 
 
 def _compiler_id(cxx: str) -> str:
