@@ -490,7 +490,8 @@ def gms_from_shape_elements(pi_func, l1, n, breakpoints=None):
 
 
 def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
-    """LuGre model with an exact-exponential bristle update, spec section 6.
+    """LuGre model with an exact-exponential bristle update, spec section 6: the state
+    follows the step's mean velocity ``(x_n - x_{n-1})/dt_n``, the force is taken at ``v_n``.
 
     Args:
         t [s], x [m], v [m/s] (optional): see ``prepare``.
@@ -502,21 +503,24 @@ def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
         dict with ``F`` [N] and bristle deflection ``z`` [m].
     """
     prep = prepare(t, x, v)
-    vs, dts, moving = prep["v"], prep["dt"], prep["moving"]
+    xs, vs, dts = prep["x"], prep["v"], prep["dt"]
     N = vs.size
     F = np.zeros(N)
     z_out = np.zeros(N)
     z = 0.0  # z_{-1}
+
+    def g_of(u):
+        return abs(_stribeck_scalar(u, Fs, Fc, Vs, delta)) if u != 0.0 else Fs
+
     for n in range(N):
         v_n = float(vs[n])
-        if moving[n]:
-            g = abs(_stribeck_scalar(v_n, Fs, Fc, Vs, delta))
-        else:
-            g = Fs
-        lam = sigma0 * abs(v_n) / g
-        sgn = 1.0 if v_n > 0 else (-1.0 if v_n < 0 else 0.0)
-        z_ss = sgn * g / sigma0
-        z = z_ss + (z - z_ss) * math.exp(-lam * float(dts[n]))
+        if n > 0:
+            w = float(xs[n] - xs[n - 1]) / float(dts[n])  # the step's mean velocity
+            gw = g_of(w)
+            sgn = 1.0 if w > 0 else (-1.0 if w < 0 else 0.0)
+            z_ss = sgn * gw / sigma0
+            z = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(w) * float(dts[n]) / gw)
+        g = g_of(v_n)
         zdot = v_n - sigma0 * abs(v_n) * z / g
         F[n] = sigma0 * z + sigma1 * zdot + sigma2 * v_n
         z_out[n] = z

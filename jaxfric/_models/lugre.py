@@ -5,7 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from .._fields import param
-from .._numerics import linear_recurrence
+from .._numerics import linear_recurrence, safe_div
 from .._stribeck import Stribeck
 from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
@@ -13,6 +13,7 @@ from ._base import AbstractFrictionModel, SimResult
 
 class LuGreState(eqx.Module):
     z: Array
+    x_prev: Array
 
 
 class LuGre(AbstractFrictionModel):
@@ -22,8 +23,11 @@ class LuGre(AbstractFrictionModel):
     **Arguments:** `stribeck`; `sigma0` bristle stiffness (N/m); `sigma1` bristle damping
     (N s/m); `sigma2` viscous coefficient (N s/m).
 
-    The bristle state is updated exactly for a velocity held constant over each sample, which
-    makes the whole trajectory a linear recurrence in z (no sequential loop).
+    The bristle state is updated exactly for the step's mean velocity ``dx/dt`` held over
+    the sample, so it follows the measured displacement whatever velocity is given (a
+    central difference, a filter's); that makes the whole trajectory a linear recurrence in
+    z (no sequential loop). The force is taken at the sample's velocity `v`. With the
+    backward-difference velocity (`jaxfric.simulate`'s default) the two are one.
     """
 
     stribeck: Stribeck
@@ -31,29 +35,36 @@ class LuGre(AbstractFrictionModel):
     sigma1: Array = param("N s/m", constraint="positive", role="presliding")
     sigma2: Array = param("N s/m", constraint="positive")
 
-    def _coefficients(self, v, dt):
-        g = self.stribeck.magnitude(v)
-        a = jnp.exp(-self.sigma0 * jnp.abs(v) * dt / g)
-        return a, (1.0 - a) * jnp.sign(v) * g / self.sigma0, g
+    def _coefficients(self, dx, dt):
+        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) over ``dt`` (s):
+        exact for the mean velocity ``dx/dt`` held over the step (no step for dt <= 0)."""
+        w = safe_div(dx, dt)
+        g = self.stribeck.magnitude(w)
+        a = jnp.exp(-self.sigma0 * jnp.abs(dx) / g)
+        return a, (1.0 - a) * jnp.sign(dx) * g / self.sigma0
 
-    def _force(self, z, v, g):
+    def _force(self, z, v):
+        g = self.stribeck.magnitude(v)
         zdot = v - self.sigma0 * jnp.abs(v) * z / g
         return self.sigma0 * z + self.sigma1 * zdot + self.sigma2 * v
 
     def init_state(self, x0: ArrayLike = 0.0) -> LuGreState:
-        return LuGreState(z=jnp.zeros((), self.sigma0.dtype))
+        return LuGreState(z=jnp.zeros((), self.sigma0.dtype),
+                          x_prev=jnp.asarray(x0, self.sigma0.dtype))
 
     def step(self, state: LuGreState, x, v, dt):
-        v, dt = jnp.asarray(v), jnp.asarray(dt)
-        a, b, g = self._coefficients(v, dt)
+        x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
+        dx = jnp.where(dt > 0, x - state.x_prev, 0.0)
+        a, b = self._coefficients(dx, dt)
         z = a * state.z + b
-        return LuGreState(z=z), self._force(z, v, g)
+        return LuGreState(z=z, x_prev=x), self._force(z, v)
 
     def _simulate(self, motion: Motion) -> SimResult:
-        a, b, g = self._coefficients(motion.v, motion.dt)
+        dx = jnp.where(motion.dt > 0, motion.dx, 0.0)
+        a, b = self._coefficients(dx, motion.dt)
         z = linear_recurrence(a, b)
         return SimResult(
-            force=self._force(z, motion.v, g),
+            force=self._force(z, motion.v),
             parts={"bristle": self.sigma0 * z, "viscous": self.sigma2 * motion.v},
             overflow=jnp.zeros((), jnp.int32),
         )

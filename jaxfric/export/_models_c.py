@@ -222,13 +222,14 @@ def _gms(model: GMS) -> Part:
 
 
 _LUGRE_HELPERS = """\
-/* LuGre.step: z updated exactly for v held over the sample;
-   F = sigma0*z + sigma1*dz/dt + sigma2*v. */
+/* LuGre.step: z updated exactly for the step's mean velocity dx/dt held over the
+   sample (no step for dt <= 0); F = sigma0*z + sigma1*dz/dt + sigma2*v at the sample's v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
-    double g = jf_smag(v), a = exp(-JF_SIGMA0 * fabs(v) * dt / g), zdot;
-    (void)x;
-    s->z = a * s->z + (1.0 - a) * jf_sign(v) * g / JF_SIGMA0;
+    double dx = dt > 0.0 ? x - s->x_prev : 0.0;
+    double gw = jf_smag(jf_div(dx, dt)), a = exp(-JF_SIGMA0 * fabs(dx) / gw);
+    double g = jf_smag(v), zdot;
+    s->z = a * s->z + (1.0 - a) * jf_sign(dx) * gw / JF_SIGMA0;
     zdot = v - JF_SIGMA0 * fabs(v) * s->z / g;
     return JF_SIGMA0 * s->z + JF_SIGMA1 * zdot + JF_SIGMA2 * v;
 }

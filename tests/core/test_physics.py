@@ -216,3 +216,25 @@ def test_lag_converges_with_the_step_size():
         f = np.asarray(jaxfric.simulate(model, t, x))
         forces[dt] = np.interp(np.linspace(0.05, 0.55, 11), t, f)
     assert np.max(np.abs(forces[1e-3] - forces[1e-5])) < 0.1
+
+
+def test_a_stiff_lugre_on_coarse_samples_follows_the_displacement():
+    """The bristle state follows the measured displacement, not the velocity it is given:
+    a stiff LuGre (sigma0 2e6 N/m, a bristle length of 10 um) on a smooth motion with
+    reversals, simulated with central-difference velocities on 10 ms samples, gives the
+    force of the same motion on 0.1 ms samples (where the step is far shorter than the
+    bristle's time constant) to within 0.1 % of the force range (0.05 N of 51 N; measured
+    0.016 N). Updated with the central velocity, the state drifts off the displacement at
+    every reversal: 1.1 N."""
+    model = jaxfric.LuGre(stribeck=jaxfric.Stribeck(Fs=26.0, Fc=20.0, Vs=3e-3, delta=1.2),
+                          sigma0=2e6, sigma1=2.0 * 2e6**0.5, sigma2=60.0)
+
+    def force(dt):
+        t = np.arange(0.0, 4.0 + dt / 2, dt)
+        x = 2e-4 * np.sin(2 * np.pi * 0.7 * t) + 5e-5 * np.sin(2 * np.pi * 2.3 * t)
+        return np.asarray(jaxfric.simulate(model, t, x, np.gradient(x, t)))
+
+    fine, coarse = force(1e-4), force(1e-2)
+    err = coarse[1:] - fine[::100][1:]
+    rmse = np.sqrt(np.mean(err**2))
+    assert rmse < 1e-3 * np.ptp(fine), (rmse, np.ptp(fine))
