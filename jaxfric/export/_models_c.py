@@ -226,9 +226,9 @@ _LUGRE_HELPERS = """\
    sample (no step for dt <= 0); F = sigma0*z + sigma1*dz/dt + sigma2*v at the sample's v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
-    double dx = dt > 0.0 ? x - s->x_prev : 0.0;
-    double gw = jf_smag(jf_div(dx, dt)), a = exp(-JF_SIGMA0 * fabs(dx) / gw);
-    double g = jf_smag(v), zdot;
+    double dx = dt > 0.0 ? x - s->x_prev : 0.0, w = jf_div(dx, dt);
+    double gw = jf_smag(w), a = exp(-JF_SIGMA0 * fabs(dx) / gw);
+    double g = v == w ? gw : jf_smag(v), zdot; /* one curve when v is dx/dt */
     s->z = a * s->z + (1.0 - a) * jf_sign(dx) * gw / JF_SIGMA0;
     zdot = v - JF_SIGMA0 * fabs(v) * s->z / g;
     return JF_SIGMA0 * s->z + JF_SIGMA1 * zdot + JF_SIGMA2 * v;
