@@ -7,7 +7,7 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   that branch's whole rise (`swing_travel`; the median over the branches that rise by at
   least 60 % of the largest rise, i.e. full reversals). Sliding starts beyond twice that.
 - **Steady-state curve** (Stribeck ``Fs, Fc, Vs`` and ``sigma2``, ``delta`` held at
-  `START_DELTA`; for the two-state and GMS starts one curve per exponent of `LAG_DELTAS`,
+  `START_DELTA`; for the hysteretic starts one curve per exponent of `LAG_DELTAS`,
   settled by the data below): fitted to the median force of the steady sliding samples
   per speed bin (`fitting._steady`); with fewer
   than 3 speed bins, from force levels (``Fc`` the median of ``|F|`` while moving,
@@ -30,11 +30,11 @@ useless for a 2 N tribometer. `initial_model` reads every family's parameters of
   before the presliding and the curve are known, so it is one of the uncertain values below.
   The diagnosis's base fit also starts from the fastest of `LAG_TIMES` (`lag_starts`).
 - **Uncertain values, settled by the data**: the presliding extent (x0.5, x1, x2 of the
-  estimate), the lag time constant (`LAG_TIMES`) and, for the two-state and GMS starts,
-  the curve's exponent (`LAG_DELTAS`; without speed bins, the static curves) are tried
+  estimate), the lag time constant (`LAG_TIMES`) and the curve's exponent (`LAG_DELTAS`;
+  without speed bins, the static curves) are tried
   together: every candidate is simulated on the measurement (one compiled
   `jaxfric.simulate` for all) and the one with the smallest sum of squared errors is the
-  start. (LuGre: ``sigma0`` x0.5, x1, x2 with each curve.)
+  start. (LuGre: ``sigma0`` x0.5, x1, x2 with each curve, no lag.)
   Then, for every hysteretic start, larger viscous terms (`VISCOUS_SHARES`), the same way
   (`_viscous`).
 """
@@ -64,12 +64,15 @@ LAG_TIMES = (2.4, 0.24, 0.024)
 #: a start there (``delta`` 2.5 or more) sent a two-state fit to ``delta`` ~300, where its
 #: next fits could not move (tests/diagnosis/test_folds.py); the fit determines it from 1.
 START_DELTA = 1.0
-#: The exponents of the steady-state curves tried for the two-state and GMS starts. Their
-#: bins hold the friction lag wherever it has not settled (a lag time ``|s|/C`` of seconds
-#: against strokes of a fraction of one), which bends them; one fixed exponent then can
-#: put the whole level into the exponential and the viscous term (``Fc`` ~ 0), a start
-#: from which a fit lands in another optimum (the demo's data: RMSE 0.60 N instead of
-#: 0.45 N). The simulation of each candidate, which has the lag, settles the choice.
+#: The exponents of the steady-state curves tried for the hysteretic starts (two-state,
+#: GMS, LuGre). One fixed exponent can put the whole level into the exponential and the
+#: viscous term (``Fc`` ~ 0): where the bins hold a friction lag that has not settled (a lag
+#: time ``|s|/C`` of seconds against strokes of a fraction of one), which bends them, and
+#: where the bins end before the curve flattens (a LuGre truth's bins up to 10 mm/s,
+#: ``Fc`` 20 N: with ``delta`` 1, ``Fc`` 0.026 N and ``sigma2`` 1174 N s/m, a start the
+#: fit cannot leave, as ``Fc`` then moves no sample). From there a fit lands in another
+#: optimum (the demo's data: RMSE 0.60 N instead of 0.45 N; that LuGre file: 0.155 N
+#: instead of 0.046 N). The simulation of each candidate settles the choice.
 LAG_DELTAS = (0.5, START_DELTA, 2.0)
 #: A record with fewer steady sliding samples than this (`fitting._steady.steady_sliding`)
 #: never slides: the hysteretic start's Stribeck velocity is then `NEVER_SLIDING` times its
@@ -192,7 +195,7 @@ def initial_model(kind: str, t, x, F, v=None, *, n_elements: int = 5):
         stribeck, sigma2 = _static_curve(t, x, F, v, vel, presliding)[0]
         return jaxfric.Tustin(stribeck=stribeck, sigma2=sigma2)
     curves = _static_curve(t, x, F, v, vel, presliding,
-                           LAG_DELTAS if kind in ("two-state", "gms") else (START_DELTA,),
+                           LAG_DELTAS,
                            every=True)
     if steady_sliding(t, x, vel, presliding).sum() < MIN_SLIDING:
         # Never sliding: no velocity weakening in the data, so none in the start, and a
