@@ -1,6 +1,9 @@
-"""The richer base model a diagnosis tries instead of the fitted one (docs/diagnosis.md,
-"The candidates"): a GMS with `GMS_ELEMENTS` elements, and the starts it is fitted from.
-When it is added, the base model was the limit, not a missing effect."""
+"""The other base models a diagnosis tries instead of the fitted one (docs/diagnosis.md,
+"The candidates"): a GMS with `GMS_ELEMENTS` elements (a richer presliding curve), a LuGre
+model (another family: a rate-dependent bristle), and the starts they are fitted from.
+When one is added, the base model was the limit, not a missing effect."""
+
+from jaxfric import LuGre
 
 from ._candidates import Data
 from ._refits import _replaced
@@ -22,6 +25,20 @@ def _richer(fallback):
     def make(plain):
         gms = gms_like(plain, GMS_ELEMENTS)
         return gms if gms is not None else fallback(plain)
+
+    return make
+
+
+def _lugre_from_data(longest: Data):
+    """The start of the LuGre option: read off the longest run (`initial_model`, made
+    once)."""
+    made = []
+
+    def make(_plain):
+        if not made:
+            d = longest
+            made.append(initial_model("lugre", d.t, d.x, d.F, d.v))
+        return made[0]
 
     return make
 
@@ -58,17 +75,21 @@ class _FastLag:
 
 
 def default_base_models(model, longest: Data, fixed=()) -> list[tuple[str, tuple]]:
-    """The base-model option a diagnosis of `model` tries by default: a GMS with
-    `GMS_ELEMENTS` elements, ``(name, starts)``; its starts ``(label, maker)``: read off
-    the data (`_from_data`), that with the fast lag (`_FastLag`) and, when that start
-    exists (a two-state model), at the fit (`_richer`). The rule keeps the best training
+    """The base-model options a diagnosis of `model` tries by default, ``[(name, starts)]``:
+    a GMS with `GMS_ELEMENTS` elements, its starts ``(label, maker)`` read off the data
+    (`_from_data`), that with the fast lag (`_FastLag`) and, when that start exists (a
+    two-state model), at the fit (`_richer`); and a LuGre model read off the data
+    (`_lugre_from_data`), unless `model` is one. The rule keeps each option's best training
     fit (`fitting._select`)."""
     data = _from_data(longest)  # one start read off the data, made once, for all
     starts = (("read off the data", data), ("read off the data, fast lag",
                                             _FastLag(data, fixed)))
     if gms_like(model.without_effects(), GMS_ELEMENTS) is not None:
         starts += (("started at the fit", _richer(data)),)
-    return [(f"GMS with {GMS_ELEMENTS} elements", starts)]
+    options = [(f"GMS with {GMS_ELEMENTS} elements", starts)]
+    if not isinstance(model.without_effects(), LuGre):
+        options.append(("LuGre", (("read off the data", _lugre_from_data(longest)),)))
+    return options
 
 
 def base_model_starts(base_models, fit) -> list[tuple[str, object]]:

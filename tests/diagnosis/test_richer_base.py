@@ -100,7 +100,7 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     m = _two_state()
     F = np.asarray(jaxfric.simulate(m, t, x))
     data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
-    ((name, starts),) = default_base_models(m + (fx.Offset(offset=0.5),), data)
+    (name, starts), _lugre = default_base_models(m + (fx.Offset(offset=0.5),), data)
     assert name == f"GMS with {GMS_ELEMENTS} elements"
     assert [label for label, _ in starts] == ["read off the data",
                                               "read off the data, fast lag",
@@ -112,7 +112,7 @@ def test_a_two_state_diagnosis_also_tries_a_gms_read_off_the_data():
     assert float(read.C) != pytest.approx(1e-3)  # read off the data, whatever the fit
     assert read is starts[0][1](m)  # made once
     gms = gms_like(m, 5)
-    ((_, starts),) = default_base_models(gms, data)
+    (_, starts), _lugre = default_base_models(gms, data)
     assert [label for label, _ in starts] == ["read off the data",
                                               "read off the data, fast lag"]
 
@@ -150,6 +150,28 @@ def test_the_search_copy_carries_every_start_of_the_base_models():
     name = f"GMS with {GMS_ELEMENTS} elements"
     # not the fast-lag start: where a fit begins, not a model the search compares
     assert [n for n, _ in made] == [f"{name} (read off the data)",
-                                    f"{name} (started at the fit)"]
-    assert all(isinstance(g.without_effects(), jaxfric.GMS) for _, g in made)
+                                    f"{name} (started at the fit)",
+                                    "LuGre (read off the data)"]
+    assert [type(g.without_effects()) for _, g in made] == [jaxfric.GMS, jaxfric.GMS,
+                                                             jaxfric.LuGre]
     assert all([e.name for e in g.effects] == ["offset"] for _, g in made)
+
+
+def test_a_diagnosis_also_tries_a_lugre_read_off_the_data_unless_the_model_is_one():
+    """Another family is a base-model option too: a LuGre read off the longest run
+    (`initial_model`, made once), whatever the fit is; not for a LuGre base model."""
+    from fitting._base_options import default_base_models
+    from fitting._candidates import Data
+    from tests.fitting.test_fit_properties import _motion
+
+    t, x = _motion()
+    m = _two_state()
+    F = np.asarray(jaxfric.simulate(m, t, x))
+    data = Data(t=t, x=x, v=np.gradient(x, t), F=F)
+    _gms, (name, starts) = default_base_models(m + (fx.Offset(offset=0.5),), data)
+    assert name == "LuGre" and [label for label, _ in starts] == ["read off the data"]
+    ((_, make),) = starts
+    lugre = make(m)
+    assert isinstance(lugre, jaxfric.LuGre) and make(gms_like(m, 5)) is lugre  # made once
+    assert [n for n, _ in default_base_models(lugre + (fx.Offset(offset=0.5),), data)] \
+        == ["GMS with 20 elements"]
