@@ -26,6 +26,7 @@ import numpy as np
 
 from fitting.cli.main import main
 from jaxfric import data as _data
+from jaxfric.effects import EFFECTS
 
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,9 +76,12 @@ def effects_added(diagnosis: dict) -> list[dict]:
     estimation file from the diagnosed values and predicting the validation file: the
     names added and both runs' RMSE (N)."""
     model, added = diagnosis["fitted_model"], diagnosis["after"]["added"]
+    # the model keeps its effects in an order of its own, not the order they were added
+    name = {EFFECTS[n].__name__: n for n in added}
     rows = []
     for k in range(1, len(added) + 1):
-        params = {**model, "effects": model["effects"][:k]}
+        params = {**model, "effects": [e for e in model["effects"]
+                                       if name[e["class"]] in added[:k]]}
         fitted, validation = run([], params)["runs"]
         rows.append({"added": added[:k], "estimation": fitted["rmse"],
                      "validation": validation["rmse"]})

@@ -290,3 +290,27 @@ def test_one_file_with_validation(files, run, tmp_path):
     assert [r["file"] for r in saved["runs"]] == [str(files[0])]
     assert [r["file"] for r in saved["validation"]] == [str(files[1])]
     assert "b.csv" in text and "validation" in text
+
+
+def test_the_emps_example_adds_the_effects_in_the_order_the_diagnosis_added_them(
+        monkeypatch):
+    """`examples/emps_validation.py` refits the diagnosed model with its first k effects in
+    the order found; the saved model keeps them in an order of its own."""
+    from ..helpers import load_example
+
+    ex = load_example("emps_validation")
+    starts = []
+
+    def run(extra, params=None):
+        starts.append([e["class"] for e in params["effects"]])
+        return {"runs": [{"rmse": 1.0}, {"rmse": 2.0}]}
+
+    monkeypatch.setattr(ex, "run", run)
+    effects = [{"class": "FrictionLag"}, {"class": "Inertia"}, {"class": "Asymmetry"}]
+    diagnosis = {"fitted_model": {"effects": effects},
+                 "after": {"added": ["inertia", "asymmetry", "friction_lag"]}}
+    rows = ex.effects_added(diagnosis)
+    assert starts == [["Inertia"], ["Inertia", "Asymmetry"],
+                      ["FrictionLag", "Inertia", "Asymmetry"]]
+    assert [r["added"] for r in rows] == [["inertia"], ["inertia", "asymmetry"],
+                                          ["inertia", "asymmetry", "friction_lag"]]
