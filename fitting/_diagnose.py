@@ -8,9 +8,9 @@ folds are the runs (`fitting._select.run_folds`, leave one run out).
 
 What is searched (`effect_names`): every effect of `jaxfric.effects` with a linear
 parameter not already in the model (those of an angle only on rotary data, those of a load
-only with a load signal), and richer base models (`default_base_models`: a GMS with 20
-elements started at the fitted two-state model's presliding curve, and one read off the
-data).
+only with a load signal), and other base models (`default_base_models`: a GMS with 20
+elements started at the fitted two-state model's presliding curve and one read off the
+data; a LuGre read off the data).
 
 A long record (at least twice `search_samples` samples) is searched on a copy
 (`_search_copy`): about `search_samples` samples evenly in time (one in k), as many again
@@ -399,8 +399,8 @@ def diagnose(
       same rule; a start is a plain model or a function of the fitted plain model that
       returns one, or several starts ``((label, start), ...)``, each fitted, the best
       held-out one kept (`fitting._select._held_out_race`; default `default_base_models`:
-      a GMS with 20 elements, started where the fit is and read off the data; ``()`` for
-      none); when one is added,
+      a GMS with 20 elements, started where the fit is and read off the data, and a LuGre
+      read off the data; ``()`` for none); when one is added,
       ``Diagnosis.finding`` says that the base model is the limit here.
     - `fixed`: parameter names of `model` held at their values in every fit.
     - `max_steps`: per fit. `max_added`: at most this many rounds add something (an

@@ -2,10 +2,10 @@
 cross-validation, with one rule (`fitting._rules.DiagnosisRules`).
 
 **Options.** Every candidate effect of `jaxfric.effects` with a linear parameter is an
-option, and so is a richer base model (`base_options`: a GMS with more elements), which
-says "the base model is the limit here" when it wins. All effects sit in one *superset*
-model (``plain + every candidate``, each switched off by its linear parameters at 0,
-``param(..., linear=True)``), so every refit fits the same compiled program; an option
+option, and so is another base model (`base_options`: a GMS with more elements, a
+LuGre), which says "the base model is the limit here" when it wins. All effects sit in one
+*superset* model (``plain + every candidate``, each switched off by its linear parameters
+at 0, ``param(..., linear=True)``), so every refit fits the same compiled program; an option
 switches its effect on by freeing its parameters (the free set is data, not structure).
 Its Jacobian is computed over the free coordinates only (``fit_datasets(..., narrow=True)``:
 slots of 8, one program per width; the same fit, without the held effects' columns).

@@ -11,6 +11,7 @@ import pytest
 import fitting
 from fitting import diagnose
 from jaxfric import synthetic
+from jaxfric.effects import EFFECTS
 
 
 pytestmark = pytest.mark.slow
@@ -43,7 +44,7 @@ def test_point_to_point_mass_error_is_found_and_recovered():
     mismatch is most of the residual: the base model is the limit here), as in the
     other point-to-point and diagnosis-motion tests."""
     d = _diagnose(*_p2p(("inertia",)))
-    assert [n for n in d.final.added if not n.startswith("GMS")][:1] == ["inertia"], \
+    assert [n for n in d.final.added if n in EFFECTS][:1] == ["inertia"], \
         d.summary()
     mass = float(next(e for e in d.model.effects if e.name == "inertia").mass)
     assert mass == pytest.approx(_true_mass(), rel=0.2)
@@ -60,7 +61,7 @@ def test_point_to_point_quadratic_drag_is_found():
 
 def test_point_to_point_clean_file_gets_no_effect():
     d = _diagnose(*_p2p(()))
-    assert [n for n in d.final.added if not n.startswith("GMS")] == []
+    assert [n for n in d.final.added if n in EFFECTS] == []
 
 
 @pytest.mark.parametrize(("truth", "hidden"), [
@@ -70,4 +71,4 @@ def test_point_to_point_clean_file_gets_no_effect():
 def test_diagnosis_motion_singles_are_still_found(truth, hidden):
     """Found, possibly after the base model was replaced by a GMS (the truth's family)."""
     d = _diagnose(*synthetic.measurement(truth, (hidden,), dt=1e-2))
-    assert [n for n in d.final.added if not n.startswith("GMS")] == [hidden]
+    assert [n for n in d.final.added if n in EFFECTS] == [hidden]
