@@ -487,7 +487,8 @@ def diagnose(
         if o.ties:
             findings.append(f"{o.name} was added, but "
                             + " and ".join(f"{n} (difference z = {z:.2f})" for n, z in o.ties)
-                            + f" predicts the held-out {held} about as well: the data do not "
+                            + (" predicts" if len(o.ties) == 1 else " predict")
+                            + f" the held-out {held} about as well: the data do not "
                             "tell them apart")
         last = i == len(chosen) - 1
         res = (_final_fit(fitter, o.fitted, o.on, copy, full, log, " + ".join(added))
