@@ -85,7 +85,7 @@ def effects_added(diagnosis: dict) -> list[dict]:
         fitted, validation = run([], params)["runs"]
         rows.append({"added": added[:k], "estimation": fitted["rmse"],
                      "validation": validation["rmse"]})
-        print(f"  + {', '.join(added[:k]):<45}estimation RMSE "
+        print(f"  + {', '.join(added[:k]):<45} estimation RMSE "
               f"{fitted['rmse']:.4g} N, validation {validation['rmse']:.4g} N", flush=True)
     return rows
 
