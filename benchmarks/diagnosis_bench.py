@@ -35,13 +35,12 @@ and after, and the same baseline's cross-validated held-out RMSE on the file's c
 counted: the file hides the others (``not_acting`` lists such files). Targets: a single
 hidden effect the first effect added in >= 90 % of files, both effects of a pair found in
 >= 80 %, no effect added on clean files, and at least half the excess error over the clean
-twin removed on every file where the effect was found. A base-model change (a GMS instead
-of the two-state model: "the base model is the limit here") is not an effect: the truths
-are of other families, where it is a right finding; the summary counts the files with one
-(``base_model_changed``). A hidden effect that raises the
-baseline's held-out error by less than `ABSORBED` over the clean twin is counted as
-*absorbed* by the base model (little is left to find); the shares are also given without
-those files.
+twin removed on every file where the effect was found. A base-model change (a GMS or a
+LuGre instead of the two-state model: "the base model is the limit here") is not an effect:
+the truths are of other families, where it is a right finding; the summary counts the files
+with one (``base_model_changed``). A hidden effect that raises the baseline's held-out error
+by less than `ABSORBED` over the clean twin is counted as *absorbed* by the base model
+(little is left to find); the shares are also given without those files.
 
 **Generalisation.** Each file is also judged on a run it was not fitted on: the same truth
 and hidden effects on another motion (`measurement` with another seed, `OTHER_RUN`); its
@@ -252,7 +251,7 @@ def absorbed(row: dict) -> bool:
 def effects_added(row: dict) -> list[str]:
     """What the diagnosis added to the file, in order, that is an effect of
     `jaxfric.effects`; the rest are base-model changes ("the base model is the limit
-    here", a GMS instead of the two-state model), the finding the diagnosis should make
+    here", a GMS or a LuGre instead of the two-state model), the finding the diagnosis should make
     on a truth of another family, not an effect the file hides."""
     from jaxfric.effects import EFFECTS
 
