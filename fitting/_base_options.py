@@ -29,15 +29,15 @@ def _richer(fallback):
     return make
 
 
-def _lugre_from_data(longest: Data):
-    """The start of the LuGre option: read off the longest run (`initial_model`, made
-    once)."""
+def _read_off(longest: Data, family: str, **options):
+    """A start made once, whatever the fit is: `initial_model` of `family` read off the
+    longest run."""
     made = []
 
     def make(_plain):
         if not made:
-            d = longest
-            made.append(initial_model("lugre", d.t, d.x, d.F, d.v))
+            made.append(initial_model(family, longest.t, longest.x, longest.F, longest.v,
+                                      **options))
         return made[0]
 
     return make
@@ -45,19 +45,11 @@ def _lugre_from_data(longest: Data):
 
 def _from_data(longest: Data):
     """A start of the GMS option: a GMS with `GMS_ELEMENTS` elements read off the longest
-    run (`initial_model`, made once), whatever the fit is. A two-state fit in a poor
+    run (`_read_off`), whatever the fit is. A two-state fit in a poor
     optimum (a frozen lag, a step-like Stribeck curve) hands that optimum to `gms_like`;
     on point-to-point moves of a 60-element GMS truth the GMS refit from it ends at
     1.43 N RMS, from the data at 0.26 N (noise 0.1 N)."""
-    made = []
-
-    def make(_plain):
-        if not made:
-            d = longest
-            made.append(initial_model("gms", d.t, d.x, d.F, d.v, n_elements=GMS_ELEMENTS))
-        return made[0]
-
-    return make
+    return _read_off(longest, "gms", n_elements=GMS_ELEMENTS)
 
 
 class _FastLag:
@@ -79,7 +71,7 @@ def default_base_models(model, longest: Data, fixed=()) -> list[tuple[str, tuple
     a GMS with `GMS_ELEMENTS` elements, its starts ``(label, maker)`` read off the data
     (`_from_data`), that with the fast lag (`_FastLag`) and, when that start exists (a
     two-state model), at the fit (`_richer`); and a LuGre model read off the data
-    (`_lugre_from_data`), unless `model` is one. The rule keeps each option's best training
+    (`_read_off`), unless `model` is one. The rule keeps each option's best training
     fit (`fitting._select`)."""
     data = _from_data(longest)  # one start read off the data, made once, for all
     starts = (("read off the data", data), ("read off the data, fast lag",
@@ -88,7 +80,7 @@ def default_base_models(model, longest: Data, fixed=()) -> list[tuple[str, tuple
         starts += (("started at the fit", _richer(data)),)
     options = [(f"GMS with {GMS_ELEMENTS} elements", starts)]
     if not isinstance(model.without_effects(), LuGre):
-        options.append(("LuGre", (("read off the data", _lugre_from_data(longest)),)))
+        options.append(("LuGre", (("read off the data", _read_off(longest, "lugre")),)))
     return options
 
 
