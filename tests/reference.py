@@ -491,7 +491,8 @@ def gms_from_shape_elements(pi_func, l1, n, breakpoints=None):
 
 def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
     """LuGre model with an exact-exponential bristle update, spec section 6: the state
-    follows the step's mean velocity ``(x_n - x_{n-1})/dt_n``, the force is taken at ``v_n``.
+    follows the step's displacement ``x_n - x_{n-1}`` with the curve at ``|v_n|``, the force
+    is taken at ``v_n``.
 
     Args:
         t [s], x [m], v [m/s] (optional): see ``prepare``.
@@ -503,7 +504,7 @@ def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
         dict with ``F`` [N] and bristle deflection ``z`` [m].
     """
     prep = prepare(t, x, v)
-    xs, vs, dts = prep["x"], prep["v"], prep["dt"]
+    xs, vs = prep["x"], prep["v"]
     N = vs.size
     F = np.zeros(N)
     z_out = np.zeros(N)
@@ -514,13 +515,12 @@ def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
 
     for n in range(N):
         v_n = float(vs[n])
-        if n > 0:
-            w = float(xs[n] - xs[n - 1]) / float(dts[n])  # the step's mean velocity
-            gw = g_of(w)
-            sgn = 1.0 if w > 0 else (-1.0 if w < 0 else 0.0)
-            z_ss = sgn * gw / sigma0
-            z = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(w) * float(dts[n]) / gw)
         g = g_of(v_n)
+        if n > 0:
+            dx = float(xs[n] - xs[n - 1])  # the step's displacement
+            sgn = 1.0 if dx > 0 else (-1.0 if dx < 0 else 0.0)
+            z_ss = sgn * g / sigma0
+            z = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(dx) / g)
         zdot = v_n - sigma0 * abs(v_n) * z / g
         F[n] = sigma0 * z + sigma1 * zdot + sigma2 * v_n
         z_out[n] = z

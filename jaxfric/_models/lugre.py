@@ -5,7 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from .._fields import param
-from .._numerics import linear_recurrence, safe_div
+from .._numerics import linear_recurrence
 from .._stribeck import Stribeck
 from ..motion import Motion
 from ._base import AbstractFrictionModel, SimResult
@@ -23,11 +23,15 @@ class LuGre(AbstractFrictionModel):
     **Arguments:** `stribeck`; `sigma0` bristle stiffness (N/m); `sigma1` bristle damping
     (N s/m); `sigma2` viscous coefficient (N s/m).
 
-    The bristle state is updated exactly for the step's mean velocity ``dx/dt`` held over
-    the sample, so it follows the measured displacement whatever velocity is given (a
-    central difference, a filter's); that makes the whole trajectory a linear recurrence in
-    z (no sequential loop). The force is taken at the sample's velocity `v`. With the
-    backward-difference velocity (`jaxfric.simulate`'s default) the two are one.
+    The bristle state is updated exactly over the step's displacement ``dx``
+    (``dz/dx = sign(dx) - sigma0*z/g``) with the curve ``g`` at the sample's speed ``|v|``,
+    so it follows the measured displacement whatever velocity is given, and the whole
+    trajectory is a linear recurrence in z (no sequential loop). The speed is the sample's
+    `v`, as for every model's Stribeck curve, not ``dx/dt``: from a quantised position
+    ``dx/dt`` jumps between 0 and one count per sample at low speed, and ``g`` of it with
+    it; the same record subsampled would then simulate another force (on 0.05 um counts at
+    1 ms, 0.1 N in the Stribeck range). The force is taken at `v` too. With the
+    backward-difference velocity (`jaxfric.simulate`'s default) ``v`` is ``dx/dt``.
     """
 
     stribeck: Stribeck
@@ -35,11 +39,10 @@ class LuGre(AbstractFrictionModel):
     sigma1: Array = param("N s/m", constraint="positive", role="presliding")
     sigma2: Array = param("N s/m", constraint="positive")
 
-    def _coefficients(self, dx, dt):
-        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) over ``dt`` (s):
-        exact for the mean velocity ``dx/dt`` held over the step (no step for dt <= 0)."""
-        w = safe_div(dx, dt)
-        g = self.stribeck.magnitude(w)
+    def _coefficients(self, dx, v):
+        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) at the speed
+        ``|v|`` (m/s): exact in ``dx`` for the curve ``g(v)`` held over the step."""
+        g = self.stribeck.magnitude(v)
         a = jnp.exp(-self.sigma0 * jnp.abs(dx) / g)
         return a, (1.0 - a) * jnp.sign(dx) * g / self.sigma0
 
@@ -55,13 +58,13 @@ class LuGre(AbstractFrictionModel):
     def step(self, state: LuGreState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         dx = jnp.where(dt > 0, x - state.x_prev, 0.0)
-        a, b = self._coefficients(dx, dt)
+        a, b = self._coefficients(dx, v)
         z = a * state.z + b
         return LuGreState(z=z, x_prev=x), self._force(z, v)
 
     def _simulate(self, motion: Motion) -> SimResult:
         dx = jnp.where(motion.dt > 0, motion.dx, 0.0)
-        a, b = self._coefficients(dx, motion.dt)
+        a, b = self._coefficients(dx, motion.v)
         z = linear_recurrence(a, b)
         return SimResult(
             force=self._force(z, motion.v),

@@ -222,14 +222,13 @@ def _gms(model: GMS) -> Part:
 
 
 _LUGRE_HELPERS = """\
-/* LuGre.step: z updated exactly for the step's mean velocity dx/dt held over the
-   sample (no step for dt <= 0); F = sigma0*z + sigma1*dz/dt + sigma2*v at the sample's v. */
+/* LuGre.step: z updated exactly over the step's displacement dx with the curve g at the
+   sample's speed |v| (no step for dt <= 0); F = sigma0*z + sigma1*dz/dt + sigma2*v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
-    double dx = dt > 0.0 ? x - s->x_prev : 0.0, w = jf_div(dx, dt);
-    double gw = jf_smag(w), a = exp(-JF_SIGMA0 * fabs(dx) / gw);
-    double g = v == w ? gw : jf_smag(v), zdot; /* one curve when v is dx/dt */
-    s->z = a * s->z + (1.0 - a) * jf_sign(dx) * gw / JF_SIGMA0;
+    double dx = dt > 0.0 ? x - s->x_prev : 0.0, g = jf_smag(v);
+    double a = exp(-JF_SIGMA0 * fabs(dx) / g), zdot;
+    s->z = a * s->z + (1.0 - a) * jf_sign(dx) * g / JF_SIGMA0;
     zdot = v - JF_SIGMA0 * fabs(v) * s->z / g;
     return JF_SIGMA0 * s->z + JF_SIGMA1 * zdot + JF_SIGMA2 * v;
 }

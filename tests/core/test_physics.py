@@ -238,3 +238,20 @@ def test_a_stiff_lugre_on_coarse_samples_follows_the_displacement():
     err = coarse[1:] - fine[::100][1:]
     rmse = np.sqrt(np.mean(err**2))
     assert rmse < 1e-3 * np.ptp(fine), (rmse, np.ptp(fine))
+
+
+def test_a_lugre_on_a_quantised_position_slides_at_the_steady_force_of_its_speed():
+    """Steady sliding at a speed in the Stribeck range, the position read by a 0.05 um
+    encoder every 1 ms (2.5e-5 m/s: half a count per sample, so the step's ``dx/dt`` is 0
+    or twice the speed), the speed given as `v`: the force is ``s(v) + sigma2*v``
+    (steady state), within 1 % of ``Fs - Fc``. A curve taken at ``dx/dt`` instead sits
+    near ``g`` of twice the speed: 2.6 N low, of 6 N."""
+    model = jaxfric.LuGre(stribeck=jaxfric.Stribeck(Fs=26.0, Fc=20.0, Vs=3e-5, delta=2.0),
+                          sigma0=3e6, sigma1=2.0 * 3e6**0.5, sigma2=60.0)
+    speed, q = 2.5e-5, 5e-8
+    t = np.arange(0.0, 20.0, 1e-3)
+    x = np.round(speed * t / q) * q
+    f = np.asarray(jaxfric.simulate(model, t, x, np.full(t.size, speed)))
+    steady = float(model.stribeck(jnp.asarray(speed))) + 60.0 * speed
+    err = np.abs(f[t > 10.0] - steady)
+    assert np.mean(err) < 0.01 * 6.0, (np.mean(err), steady)
