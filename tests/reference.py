@@ -490,9 +490,9 @@ def gms_from_shape_elements(pi_func, l1, n, breakpoints=None):
 
 
 def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
-    """LuGre model with an exact-exponential bristle update, spec section 6: the state
-    follows the step's displacement ``x_n - x_{n-1}`` with the curve at ``|v_n|``, the force
-    is taken at ``v_n``.
+    """LuGre model with an exponential bristle update, spec section 6: the state follows
+    the step's displacement ``x_n - x_{n-1}`` with ``1/g`` the mean of its values at
+    ``|v_{n-1}|`` and ``|v_n|``, the force is taken at ``v_n``.
 
     Args:
         t [s], x [m], v [m/s] (optional): see ``prepare``.
@@ -519,8 +519,9 @@ def lugre(t, x, v=None, *, Fs, Fc, Vs, delta, sigma0, sigma1, sigma2):
         if n > 0:
             dx = float(xs[n] - xs[n - 1])  # the step's displacement
             sgn = 1.0 if dx > 0 else (-1.0 if dx < 0 else 0.0)
-            z_ss = sgn * g / sigma0
-            z = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(dx) / g)
+            k = 0.5 * (1.0 / g + 1.0 / g_of(float(vs[n - 1])))  # 1/g, trapezoid rule
+            z_ss = sgn / (sigma0 * k)
+            z = z_ss + (z - z_ss) * math.exp(-sigma0 * abs(dx) * k)
         zdot = v_n - sigma0 * abs(v_n) * z / g
         F[n] = sigma0 * z + sigma1 * zdot + sigma2 * v_n
         z_out[n] = z

@@ -14,6 +14,7 @@ from ._base import AbstractFrictionModel, SimResult
 class LuGreState(eqx.Module):
     z: Array
     x_prev: Array
+    v_prev: Array
 
 
 class LuGre(AbstractFrictionModel):
@@ -23,15 +24,17 @@ class LuGre(AbstractFrictionModel):
     **Arguments:** `stribeck`; `sigma0` bristle stiffness (N/m); `sigma1` bristle damping
     (N s/m); `sigma2` viscous coefficient (N s/m).
 
-    The bristle state is updated exactly over the step's displacement ``dx``
-    (``dz/dx = sign(dx) - sigma0*z/g``) with the curve ``g`` at the sample's speed ``|v|``,
-    so it follows the measured displacement whatever velocity is given, and the whole
-    trajectory is a linear recurrence in z (no sequential loop). The speed is the sample's
-    `v`, as for every model's Stribeck curve, not ``dx/dt``: from a quantised position
-    ``dx/dt`` jumps between 0 and one count per sample at low speed, and ``g`` of it with
-    it; the same record subsampled would then simulate another force (on 0.05 um counts at
-    1 ms, 0.1 N in the Stribeck range). The force is taken at `v` too. With the
-    backward-difference velocity (`jaxfric.simulate`'s default) ``v`` is ``dx/dt``.
+    The bristle state is updated over the step's displacement ``dx``
+    (``dz/dx = sign(dx) - sigma0*z/g``) with ``1/g`` taken by the trapezoid rule between the
+    previous sample's speed and this one's: exact where ``g`` is constant (the state then
+    follows the measured displacement whatever velocity is given), second order in the step
+    where it is not, and the whole trajectory is a linear recurrence in z (no sequential
+    loop). On 4 ms steps across the Stribeck range: 0.0096 N from the 0.01 ms simulation,
+    0.046 N with ``g`` at the step's end (tests/core/test_physics.py). The speeds are the
+    samples' `v`, as for every model's Stribeck curve, not ``dx/dt``: from a quantised
+    position ``dx/dt`` jumps between 0 and one count per sample at low speed, and ``g`` of
+    it with it (on 0.05 um counts at 1 ms, 0.1 N in the Stribeck range). The force is taken at `v` too. With the backward-difference velocity
+    (`jaxfric.simulate`'s default) ``v`` is ``dx/dt``.
     """
 
     stribeck: Stribeck
@@ -39,12 +42,13 @@ class LuGre(AbstractFrictionModel):
     sigma1: Array = param("N s/m", constraint="positive", role="presliding")
     sigma2: Array = param("N s/m", constraint="positive")
 
-    def _coefficients(self, dx, v):
-        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) at the speed
-        ``|v|`` (m/s): exact in ``dx`` for the curve ``g(v)`` held over the step."""
-        g = self.stribeck.magnitude(v)
-        a = jnp.exp(-self.sigma0 * jnp.abs(dx) / g)
-        return a, (1.0 - a) * jnp.sign(dx) * g / self.sigma0
+    def _coefficients(self, dx, v, v_prev):
+        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) from the speed
+        ``|v_prev|`` to ``|v|`` (m/s): ``1/g`` by the trapezoid rule over the step, exact in
+        ``dx`` where ``g`` is constant."""
+        k = 0.5 * (1.0 / self.stribeck.magnitude(v) + 1.0 / self.stribeck.magnitude(v_prev))
+        a = jnp.exp(-self.sigma0 * jnp.abs(dx) * k)
+        return a, (1.0 - a) * jnp.sign(dx) / (self.sigma0 * k)
 
     def _force(self, z, v):
         g = self.stribeck.magnitude(v)
@@ -53,18 +57,20 @@ class LuGre(AbstractFrictionModel):
 
     def init_state(self, x0: ArrayLike = 0.0) -> LuGreState:
         return LuGreState(z=jnp.zeros((), self.sigma0.dtype),
-                          x_prev=jnp.asarray(x0, self.sigma0.dtype))
+                          x_prev=jnp.asarray(x0, self.sigma0.dtype),
+                          v_prev=jnp.zeros((), self.sigma0.dtype))
 
     def step(self, state: LuGreState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         dx = jnp.where(dt > 0, x - state.x_prev, 0.0)
-        a, b = self._coefficients(dx, v)
+        a, b = self._coefficients(dx, v, state.v_prev)
         z = a * state.z + b
-        return LuGreState(z=z, x_prev=x), self._force(z, v)
+        return LuGreState(z=z, x_prev=x, v_prev=v), self._force(z, v)
 
     def _simulate(self, motion: Motion) -> SimResult:
         dx = jnp.where(motion.dt > 0, motion.dx, 0.0)
-        a, b = self._coefficients(dx, motion.v)
+        v_prev = jnp.concatenate([motion.v[:1], motion.v[:-1]])  # dx_0 = 0: unused there
+        a, b = self._coefficients(dx, motion.v, v_prev)
         z = linear_recurrence(a, b)
         return SimResult(
             force=self._force(z, motion.v),

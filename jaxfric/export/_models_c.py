@@ -222,13 +222,16 @@ def _gms(model: GMS) -> Part:
 
 
 _LUGRE_HELPERS = """\
-/* LuGre.step: z updated exactly over the step's displacement dx with the curve g at the
-   sample's speed |v| (no step for dt <= 0); F = sigma0*z + sigma1*dz/dt + sigma2*v. */
+/* LuGre.step: z updated over the step's displacement dx, 1/g by the trapezoid rule between
+   the previous sample's speed (s->v_prev, set by the caller) and this one's (no step for
+   dt <= 0);
+   F = sigma0*z + sigma1*dz/dt + sigma2*v. */
 static double jf_model(jaxfric_state *s, double x, double v, double dt)
 {
     double dx = dt > 0.0 ? x - s->x_prev : 0.0, g = jf_smag(v);
-    double a = exp(-JF_SIGMA0 * fabs(dx) / g), zdot;
-    s->z = a * s->z + (1.0 - a) * jf_sign(dx) * g / JF_SIGMA0;
+    double k = 0.5 * (1.0 / g + 1.0 / jf_smag(s->v_prev));
+    double a = exp(-JF_SIGMA0 * fabs(dx) * k), zdot;
+    s->z = a * s->z + (1.0 - a) * jf_sign(dx) / (JF_SIGMA0 * k);
     zdot = v - JF_SIGMA0 * fabs(v) * s->z / g;
     return JF_SIGMA0 * s->z + JF_SIGMA1 * zdot + JF_SIGMA2 * v;
 }

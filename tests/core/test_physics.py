@@ -240,6 +240,27 @@ def test_a_stiff_lugre_on_coarse_samples_follows_the_displacement():
     assert rmse < 1e-3 * np.ptp(fine), (rmse, np.ptp(fine))
 
 
+def test_a_lugre_whose_curve_changes_over_a_step_is_integrated_to_second_order():
+    """Over a step whose speed crosses the Stribeck range the curve ``g`` changes; the
+    update takes ``1/g`` by the trapezoid rule (second order). On 4 ms steps of a smooth
+    motion with reversals (speeds to 0.9 mm/s, ``Vs`` 0.2 mm/s, bristle length 10 um) the
+    force is within 0.05 % of its range of the 0.01 ms simulation: measured 0.0096 N of
+    44.6 N. With ``g`` at the step's end (first order): 0.046 N."""
+    model = jaxfric.LuGre(stribeck=jaxfric.Stribeck(Fs=26.0, Fc=20.0, Vs=2e-4, delta=1.2),
+                          sigma0=2e6, sigma1=2.0 * 2e6**0.5, sigma2=60.0)
+
+    def force(dt):
+        t = np.arange(0.0, 4.0 + dt / 2, dt)
+        w1, w2 = 2 * np.pi * 0.7, 2 * np.pi * 2.3
+        x = 2e-4 * np.sin(w1 * t) + 5e-5 * np.sin(w2 * t)
+        v = 2e-4 * w1 * np.cos(w1 * t) + 5e-5 * w2 * np.cos(w2 * t)
+        return np.asarray(jaxfric.simulate(model, t, x, v))
+
+    fine, coarse = force(1e-5), force(4e-3)
+    rmse = np.sqrt(np.mean((coarse[1:] - fine[::400][1:]) ** 2))
+    assert rmse < 5e-4 * np.ptp(fine), (rmse, np.ptp(fine))
+
+
 def test_a_lugre_on_a_quantised_position_slides_at_the_steady_force_of_its_speed():
     """Steady sliding at a speed in the Stribeck range, the position read by a 0.05 um
     encoder every 1 ms (2.5e-5 m/s: half a count per sample, so the step's ``dx/dt`` is 0
