@@ -42,16 +42,15 @@ class LuGre(AbstractFrictionModel):
     sigma1: Array = param("N s/m", constraint="positive", role="presliding")
     sigma2: Array = param("N s/m", constraint="positive")
 
-    def _coefficients(self, dx, v, v_prev):
-        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) from the speed
-        ``|v_prev|`` to ``|v|`` (m/s): ``1/g`` by the trapezoid rule over the step, exact in
-        ``dx`` where ``g`` is constant."""
-        k = 0.5 * (1.0 / self.stribeck.magnitude(v) + 1.0 / self.stribeck.magnitude(v_prev))
+    def _coefficients(self, dx, g, g_prev):
+        """``(a, b)`` of ``z_n = a*z_{n-1} + b`` for the step ``dx`` (m) from the curve
+        ``g_prev`` (N, at the previous sample's speed) to ``g`` (at this one's): ``1/g`` by
+        the trapezoid rule over the step, exact in ``dx`` where ``g`` is constant."""
+        k = 0.5 * (1.0 / g + 1.0 / g_prev)
         a = jnp.exp(-self.sigma0 * jnp.abs(dx) * k)
         return a, (1.0 - a) * jnp.sign(dx) / (self.sigma0 * k)
 
-    def _force(self, z, v):
-        g = self.stribeck.magnitude(v)
+    def _force(self, z, v, g):
         zdot = v - self.sigma0 * jnp.abs(v) * z / g
         return self.sigma0 * z + self.sigma1 * zdot + self.sigma2 * v
 
@@ -63,17 +62,18 @@ class LuGre(AbstractFrictionModel):
     def step(self, state: LuGreState, x, v, dt):
         x, v, dt = jnp.asarray(x), jnp.asarray(v), jnp.asarray(dt)
         dx = jnp.where(dt > 0, x - state.x_prev, 0.0)
-        a, b = self._coefficients(dx, v, state.v_prev)
+        g = self.stribeck.magnitude(v)
+        a, b = self._coefficients(dx, g, self.stribeck.magnitude(state.v_prev))
         z = a * state.z + b
-        return LuGreState(z=z, x_prev=x, v_prev=v), self._force(z, v)
+        return LuGreState(z=z, x_prev=x, v_prev=v), self._force(z, v, g)
 
     def _simulate(self, motion: Motion) -> SimResult:
         dx = jnp.where(motion.dt > 0, motion.dx, 0.0)
-        v_prev = jnp.concatenate([motion.v[:1], motion.v[:-1]])  # dx_0 = 0: unused there
-        a, b = self._coefficients(dx, motion.v, v_prev)
+        g = self.stribeck.magnitude(motion.v)  # one curve evaluation per sample
+        a, b = self._coefficients(dx, g, jnp.concatenate([g[:1], g[:-1]]))  # dx_0 = 0
         z = linear_recurrence(a, b)
         return SimResult(
-            force=self._force(z, motion.v),
+            force=self._force(z, motion.v, g),
             parts={"bristle": self.sigma0 * z, "viscous": self.sigma2 * motion.v},
             overflow=jnp.zeros((), jnp.int32),
         )
