@@ -33,8 +33,9 @@ class LuGre(AbstractFrictionModel):
     0.046 N with ``g`` at the step's end (tests/core/test_physics.py). The speeds are the
     samples' `v`, as for every model's Stribeck curve, not ``dx/dt``: from a quantised
     position ``dx/dt`` jumps between 0 and one count per sample at low speed, and ``g`` of
-    it with it (on 0.05 um counts at 1 ms, 0.1 N in the Stribeck range). The force is taken at `v` too. With the backward-difference velocity
-    (`jaxfric.simulate`'s default) ``v`` is ``dx/dt``.
+    it with it (on 0.05 um counts at 1 ms, 0.1 N in the Stribeck range). The force is
+    taken at `v` too. With the backward-difference velocity (`jaxfric.simulate`'s default)
+    ``v`` is ``dx/dt``.
     """
 
     stribeck: Stribeck
