@@ -5,6 +5,9 @@ every sample or on a fold's training samples, nested and paired with the current
 fold fits. `_converged` says which fits the rule takes as final."""
 
 import dataclasses
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import equinox as eqx
 import jax
@@ -96,9 +99,37 @@ class Fitter:
     """Fits on one record (one run or several, `Data`): `superset` models, each with its
     own slots switched on."""
 
-    def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None):
+    def __init__(self, data: Data, fixed=(), max_steps: int = 300, log=None,
+                 workers: int | None = None):
         self.data, self.fixed, self.max_steps = data, tuple(fixed), max_steps
         self.log = log or (lambda *_: None)
+        self.workers = default_workers() if workers is None else max(1, int(workers))
+        self._local = threading.local()
+
+    @property
+    def last(self):
+        """The `FitResult` of this thread's latest fit."""
+        return self._local.last
+
+    @last.setter
+    def last(self, res) -> None:
+        self._local.last = res
+
+    def map(self, fun, items) -> list:
+        """``[fun(item) for item in items]``, up to `workers` at a time in threads, in
+        order. The fits are independent and each is deterministic, so the results are
+        those of the loop; JAX runs compiled code without Python's lock, and one thread's
+        Python work between compiled chunks overlaps another's computation. An exception
+        (Ctrl-C included) cancels the calls not begun and is raised at once; those running
+        end in the background, their results dropped."""
+        items = list(items)
+        if self.workers <= 1 or len(items) <= 1:
+            return [fun(item) for item in items]
+        pool = ThreadPoolExecutor(min(self.workers, len(items)), "jaxfric-fit")
+        try:
+            return [f.result() for f in [pool.submit(fun, item) for item in items]]
+        finally:
+            pool.shutdown(wait=False, cancel_futures=True)
 
     def props(self, model, on: frozenset):
         """Free: the base model's leaves (but `fixed`) and those of the effects in `on`
@@ -157,15 +188,19 @@ class Fitter:
         `starts` (``[(label, model)]``, `fitting._start.lag_starts`), `max_steps` each; the
         fit of the least training SSE (a non-finite one never wins) is kept and, where it
         stopped at its step limit, continued once (as the base-model options race,
-        `fitting._select._race`); `last` is its result. One start: one `fit`, label ``""``."""
+        `fitting._select._kept`); `last` is its result. One start: one `fit`, label ``""``."""
         if len(starts) == 1:
             return (*self.fit(starts[0][1], on), "")
-        fits, ok = [], np.isfinite(self.data.F)
-        for label, model in starts:
+        ok = np.isfinite(self.data.F)
+
+        def one(start):
+            label, model = start
             self.log(f"  from the {label} ...")
             fitted, pred = self.fit(model, on)
             sse = float(np.sum((pred - self.data.F)[ok] ** 2))
-            fits.append((sse if np.isfinite(sse) else np.inf, label, fitted, pred, self.last))
+            return sse if np.isfinite(sse) else np.inf, label, fitted, pred, self.last
+
+        fits = self.map(one, starts)
         sse, label, fitted, pred, self.last = min(fits, key=lambda f: f[0])
         self.log(f"  kept the fit from the {label} (training RMSE "
                  f"{np.sqrt(sse / ok.sum()):.4g} N)")
@@ -193,14 +228,18 @@ class Fitter:
         nothing was fitted on the held-out blocks."""
         if option.fold_preds:
             return
-        for k, (train, _) in enumerate(folds):
+        def one(k):
+            train = folds[k][0]
             model = current.fold_models[k]
             resid = self.data.F - current.fold_preds[k]
             s = _signals(self.data, model.without_effects())
             for i, name in new.items():
                 e = start_effect(name, self.data, None, resid, s, weights=train)
                 model = eqx.tree_at(lambda m, i=i: m.effects[i], model, e)
-            option._fold(*self.fold_fit(model, option.on, train), self.last)
+            return *self.fold_fit(model, option.on, train), self.last
+
+        for fit in self.map(one, range(len(folds))):
+            option._fold(*fit)
 
     def reference(self, current: Option, folds) -> None:
         """Set `current.fold_refs`, what every option is judged against: per fold, the
@@ -209,14 +248,14 @@ class Fitter:
         not credited with the improvement a cut fit leaves, only with its own freedom."""
         if current.fold_refs:
             return
-        for k, (train, _) in enumerate(folds):
+        def one(k):
             if current.fold_converged[k]:
-                current.fold_refs.append(current.fold_preds[k])
-            else:
-                self.log(f"  continuing the current model's fold {k} fit (stopped at its "
-                         "step limit) as the reference ...")
-                current.fold_refs.append(self.fold_fit(current.fold_models[k], current.on,
-                                                       train)[1])
+                return current.fold_preds[k]
+            self.log(f"  continuing the current model's fold {k} fit (stopped at its "
+                     "step limit) as the reference ...")
+            return self.fold_fit(current.fold_models[k], current.on, folds[k][0])[1]
+
+        current.fold_refs.extend(self.map(one, range(len(folds))))
 
     def cross_validate(self, option: Option, folds, current: Option | None = None) -> None:
         """Refit `option` from its start (`option.model`) with each fold held out; a
@@ -227,10 +266,26 @@ class Fitter:
         blocks predicted by a model that was fitted on them."""
         if option.fold_preds:
             return
-        for k, (train, _) in enumerate(folds):
+        def one(k):
             start = (_replaced(option.make, current.fold_models[k])
                      if option.make is not None and current is not None else option.model)
-            option._fold(*self.fold_fit(start, option.on, train), self.last)
+            return *self.fold_fit(start, option.on, folds[k][0]), self.last
+
+        for fit in self.map(one, range(len(folds))):
+            option._fold(*fit)
+
+
+def default_workers() -> int:
+    """How many fits a `Fitter` runs at once (`Fitter.map`): the environment variable
+    ``JAXFRIC_WORKERS`` (a positive integer; 1 runs them one after another), else the
+    cores this process may use."""
+    given = os.environ.get("JAXFRIC_WORKERS", "").strip()
+    if given:
+        if not given.isdigit() or int(given) < 1:
+            raise ValueError(f"JAXFRIC_WORKERS={given!r}: give a positive integer")
+        return int(given)
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+        os.cpu_count() or 1)
 
 
 def _replaced(make, model):

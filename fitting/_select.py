@@ -25,7 +25,7 @@ the start kept.
    starts (`_replaced`; a GMS at the fit and read off the data), `max_steps` each, the
    best training fit standing for it (continued; one model, several starts: one option,
    one place among the `tried`) and, when it is cross-validated, every start is, the one
-   of most held-out gain kept (`_race`, `_held_out_race`), in later
+   of most held-out gain kept (`_kept`, `_held_out_race`), in later
    rounds from its own fit of the round before with the current model's effects at
    their fitted values (it starts where it ended, the effect just added included);
 2. an option whose refit removes no more training SSE than ``2 q s^2`` (`_optimism`: what
@@ -193,15 +193,16 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             eff = start_effect(n, data, None, resid, signals)
             model = eqx.tree_at(lambda m, i=i: m.effects[i], current.fitted, eff)
             options.append(Option((n,), model, current.on | {i}))
-        for o in options:
-            _refit(fitter, o, current, log)
-        if not switched:
-            for bname, starts in base_options():
-                group = [Option((bname,), _replaced(begin, current.fitted), current.on,
-                                base=True, make=make, start=label)
-                         for label, make, begin in _base_starts(
-                             starts, earlier.get(bname), current.fitted.without_effects())]
-                options.append(_race(fitter, group, current, log))
+        groups = [] if switched else [
+            [Option((bname,), _replaced(begin, current.fitted), current.on, base=True,
+                    make=make, start=label)
+             for label, make, begin in _base_starts(starts, earlier.get(bname),
+                                                    current.fitted.without_effects())]
+            for bname, starts in base_options()]
+        # every fit of the round at once (`Fitter.map`), the slow base-model starts first
+        fitter.map(lambda job, c=current: _refit(fitter, *job, c, log),
+                   [(o, len(g) == 1) for g in groups for o in g] + [(o, True) for o in options])
+        options += fitter.map(lambda g, c=current: _kept(fitter, g, c, log), groups)
         options.sort(key=lambda o: o.sse)
         _optimism(fitter, current, options)
         best = _admissible([o for o in options if o.sse < current.sse - o.optimism],
@@ -211,8 +212,7 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
             singles = [o for o in best if not o.base]
             pairs = [(_pair(a, b, current), min(a, b, key=lambda o: o.sse))
                      for a, b in itertools.combinations(singles, 2)]
-            for o, _ in pairs:
-                _refit(fitter, o, current, log)
+            fitter.map(lambda p, c=current: _refit(fitter, p[0], True, c, log), pairs)
             for o, single in pairs:  # what its other effect adds to its better single
                 _optimism(fitter, single, [o])
             options += [o for o, _ in pairs]
@@ -245,10 +245,10 @@ def _base_starts(starts, earlier, plain) -> list[tuple]:
     return out
 
 
-def _refit(fitter: Fitter, o: Option, current: Option, log, continued: bool = True) -> None:
+def _refit(fitter: Fitter, o: Option, continued: bool, current: Option, log) -> None:
     """Fit option `o` on every sample with the budget of a fold fit (`Fitter.fold_fit`:
     continued once where it stopped at its step limit; not `continued`: one fit, for a
-    start that competes with others, `_race`); set its fit, training SSE and physical
+    start that competes with others, `_kept`); set its fit, training SSE and physical
     check."""
     log(f"  refitting with {o.name}{f' ({o.start})' if o.start else ''} ...")
     o.fitted, o.pred = (fitter.fold_fit if continued else fitter.fit)(o.model, o.on)
@@ -263,12 +263,11 @@ def _set(fitter: Fitter, o: Option, current: Option) -> None:
         p for i in sorted(o.on - current.on) if (p := physical(o.fitted.effects[i], fitter.data)))
 
 
-def _race(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
-    """One option fitted from several starts: each start gets `max_steps`; the best
-    training fit stands for the option among the `tried` and is continued where it
-    stopped; the others are its `rivals`, cross-validated with it (`_held_out_race`)."""
-    for o in group:
-        _refit(fitter, o, current, log, continued=len(group) == 1)
+def _kept(fitter: Fitter, group: list[Option], current: Option, log) -> Option:
+    """One option fitted from several starts (`group`, each fitted by `_refit`, with
+    `max_steps` where there are several): the best training fit stands for the option
+    among the `tried` and is continued where it stopped; the others are its `rivals`,
+    cross-validated with it (`_held_out_race`)."""
     kept = min(group, key=lambda o: o.sse if np.isfinite(o.sse) else np.inf)
     if len(group) > 1:  # a single start was continued by `_refit` already
         _continue(fitter, kept, current, log)

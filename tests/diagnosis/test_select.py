@@ -392,7 +392,7 @@ def test_an_options_fit_cut_at_its_step_limit_is_continued_once():
 
     fitter.fit = fit
     o = R.Option(("offset",), "start", frozenset())
-    S._refit(fitter, o, R.Option(("base",), None, frozenset()), lambda *_: None)
+    S._refit(fitter, o, True, R.Option(("base",), None, frozenset()), lambda *_: None)
     assert calls == ["start", "fit 1"] and o.fitted == "fit 2"
     assert o.unconverged == ""
 
@@ -420,7 +420,10 @@ def test_the_starts_of_one_option_race_and_only_the_leader_is_continued():
 
     fitter.fit = fit
     group = [R.Option(("GMS",), m, frozenset(), base=True, start=m) for m in ("far", "near")]
-    kept = S._race(fitter, group, R.Option(("base",), None, frozenset()), lambda *_: None)
+    current = R.Option(("base",), None, frozenset())
+    for o in group:
+        S._refit(fitter, o, False, current, lambda *_: None)
+    kept = S._kept(fitter, group, current, lambda *_: None)
     assert calls == ["far", "near", "near fitted"]
     assert kept is group[1] and kept.fitted == "near fitted fitted" and not kept.unconverged
     assert group[0].unconverged  # the one behind is left where it stopped
