@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -498,6 +499,14 @@ def _parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _share_cores(jobs: int) -> None:
+    """The files are the parallel work: with several worker processes, each diagnosis
+    runs its fits on its share of the cores (``JAXFRIC_WORKERS``,
+    `fitting._refits.default_workers`), not on all; a value given is kept."""
+    if jobs > 1 and "JAXFRIC_WORKERS" not in os.environ:
+        os.environ["JAXFRIC_WORKERS"] = str(max(1, (os.cpu_count() or 1) // jobs))
+
+
 def main(argv=None) -> int:
     ap = _parser()
     args = ap.parse_args(argv)
@@ -550,6 +559,7 @@ def main(argv=None) -> int:
         tmp.replace(out)
         return data
 
+    _share_cores(args.jobs)
     # A fresh worker for every file: each diagnosis compiles its own functions (about a
     # hundred), and a worker that kept them all would run out of memory maps.
     with ProcessPoolExecutor(max_workers=args.jobs, max_tasks_per_child=1) as pool:
