@@ -337,6 +337,11 @@ def main(argv=None) -> int:
         check_options(args)
         _several_files(args)
         _check_outputs(args)
+        if args.command in _SIMULATING and (args.command == "diagnose" or getattr(
+                args, "model", None) not in ("lugre", "tustin")):
+            from jaxfric._kernel import prepare
+
+            prepare()  # the C++ kernels build while the data are read
         return args.func(args)
     except DataError as e:
         print(f"jaxfric {args.command}: error: {e}", file=sys.stderr)
@@ -346,6 +351,10 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         return _interrupt.stop(args.command, signal.SIGINT, hard)
 
+
+#: The commands that simulate, and so use the compiled kernels (`jaxfric._kernel`), but
+#: for a LuGre or Tustin model (a diagnosis tries a GMS whatever its model).
+_SIMULATING = ("demo", "fit", "simulate", "compare", "diagnose")
 
 #: The outputs of each command: (option, attribute, file or folder), checked before work.
 _OUTPUTS = {

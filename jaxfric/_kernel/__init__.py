@@ -219,6 +219,28 @@ def available() -> bool:
         return _state["ok"]
 
 
+def prepare() -> threading.Thread | None:
+    """Build (or load) the kernels in a background thread, so that the first program that
+    uses them does not wait for the C++ compiler (about 13 s on the 2-core machine on a
+    first run; `build`): what the command line does as it starts a command that simulates,
+    while it reads the data. `available` then waits for that thread's answer (its lock).
+    None, and nothing started, when ``JAXFRIC_EVENT_KERNEL=jax`` or when that is decided
+    already."""
+    try:
+        if mode() == "jax" or "ok" in _state:
+            return None
+    except ValueError:  # a wrong JAXFRIC_EVENT_KERNEL: raised where the kernels are used
+        return None
+
+    def run():
+        with contextlib.suppress(Exception):  # a failure is logged or raised by `available`
+            available()
+
+    thread = threading.Thread(target=run, name="jaxfric-kernels", daemon=True)
+    thread.start()
+    return thread
+
+
 def is_float64(a) -> bool:
     """Whether `a` (an array, a tracer or a Python number) is float64; an array's dtype is
     read directly (`jnp.result_type` costs microseconds, and `jaxfric.simulate` asks this
