@@ -4,6 +4,7 @@ one record: the superset model with some effects switched on (their parameters f
 every sample or on a fold's training samples, nested and paired with the current model's
 fold fits. `_converged` says which fits the rule takes as final."""
 
+import contextlib
 import dataclasses
 import os
 import threading
@@ -161,11 +162,34 @@ class Fitter:
             eqx.filter(fit_model, eqx.is_inexact_array))]
         return sum(n for n, p in zip(sizes, _params.props_leaves(props)) if p.free)
 
-    def fit(self, model, on: frozenset, weights=None):
+    def compile_ahead(self, makers) -> list[threading.Thread]:
+        """Compile, each in a thread of its own, the programs of the fits to come of the
+        models `makers` make (functions of no argument returning ``(model, on)``): a fit
+        of no step of each (`fitting.fit_datasets` with ``max_steps=0``: one evaluation of
+        its start with the fit's own programs), its result dropped; the fit to come then
+        finds them compiled. For programs that cannot be made earlier (a base-model
+        option's, made while the base model is fitted, when a core is free); join the
+        threads before those fits, which would otherwise compile the same programs again.
+        Nothing with one worker (`workers`); an error is left for the fit to come."""
+        if self.workers <= 1:
+            return []
+
+        def run(make):
+            with contextlib.suppress(Exception):
+                self.fit(*make(), steps=0)
+
+        threads = [threading.Thread(target=run, args=(make,), name="jaxfric-compile",
+                                    daemon=True) for make in makers]
+        for thread in threads:
+            thread.start()
+        return threads
+
+    def fit(self, model, on: frozenset, weights=None, steps: int | None = None):
         """``(fitted model in the fit representation, prediction on every sample)``: one
         fit of every run at once (`fitting.fit_datasets`: each run from its own zero state,
-        per-run parameters per run); a run of zero weight is left out of the fit and predicted with
-        its per-run parameters at their mean over the runs fitted (`Data.simulate`)."""
+        per-run parameters per run), `steps` (default `max_steps`) steps at most; a run of
+        zero weight is left out of the fit and predicted with its per-run parameters at
+        their mean over the runs fitted (`Data.simulate`)."""
         d = self.data
         runs = d.runs()
         w = ([None] * len(runs) if weights is None else
@@ -176,7 +200,8 @@ class Fitter:
         sets = [Dataset(t=runs[i].t, x=runs[i].x, F=runs[i].F, v=runs[i].v, a=runs[i].a,
                         load=runs[i].load, weights=w[i]) for i in fitted]
         res = fit_datasets(fit_model, shifted(sets, fitted) if len(runs) > 1 else sets,
-                           props=props, max_steps=self.max_steps, narrow=True)
+                           props=props, max_steps=self.max_steps if steps is None else steps,
+                           narrow=True)
         if len(runs) == 1:
             res = eqx.tree_at(lambda r: (r.prediction, r.residuals), res,
                               (res.prediction[0], res.residuals[0]))

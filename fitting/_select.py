@@ -177,7 +177,13 @@ def select(fitter: Fitter, start, candidates: Sequence[str], folds, rules: Diagn
     log(f"fitting the base model ({len(names)} candidate effects held at 0) ...")
     # the kept fit's start is its folds' start too
     starts = lag_starts(superset, fitter.fixed) if race else [("given start", superset)]
+    # the base-model options' programs compile while the base model is fitted
+    ahead = fitter.compile_ahead([
+        lambda s=s: (_replaced(_base_starts(s, None, plain)[0][2], superset), frozenset())
+        for _, s in base_options()])
     fitted, pred, won = fitter.race(starts, frozenset())
+    for thread in ahead:
+        thread.join()
     current = Option(("base",), dict(starts).get(won, superset), frozenset(), fitted=fitted,
                      pred=pred, result=fitter.last, start=won,
                      sse=float(np.sum((pred - data.F) ** 2)))

@@ -99,3 +99,30 @@ def test_a_diagnosis_in_threads_is_the_diagnosis_one_fit_after_another(monkeypat
     assert [numbers(tr) for tr in one.trials] == [numbers(tr) for tr in two.trials]
     assert any(tr["z"] is not None for tr in one.trials)  # a cross-validation compared
     assert float(one.model.effects[0].mass) == float(two.model.effects[0].mass)
+
+
+def test_compile_ahead_compiles_what_the_fit_to_come_runs(monkeypatch):
+    """After `Fitter.compile_ahead` (a fit of no step, in a thread), the fit of that model
+    traces no solver program of its own; with one worker nothing is started."""
+    from fitting import _chunked
+    from fitting._candidates import Data
+
+    start, t, x, F, v, a = _tustin_record(mass=4.0, duration=3.37)  # a length of its own
+    traced = []
+    inner = _chunked._chunk_steps
+
+    def counting(*args, **kwargs):
+        traced.append(threading.current_thread().name)
+        return inner(*args, **kwargs)
+
+    monkeypatch.setattr(_chunked, "_chunk_steps", counting)
+    data = Data(t=t, x=x, v=v, F=F, a=a)
+    assert R.Fitter(data, workers=1).compile_ahead([lambda: (start, frozenset())]) == []
+    fitter = R.Fitter(data, workers=2, max_steps=20)
+    threads = fitter.compile_ahead([lambda: (start, frozenset())])
+    for thread in threads:
+        thread.join()
+    assert traced and set(traced) == {"jaxfric-compile"}
+    _, pred = fitter.fit(start, frozenset())
+    assert len(traced) == 1 and int(fitter.last.num_steps) > 0
+    assert np.all(np.isfinite(pred))
