@@ -337,8 +337,7 @@ def main(argv=None) -> int:
         check_options(args)
         _several_files(args)
         _check_outputs(args)
-        if args.command in _SIMULATING and (args.command == "diagnose" or getattr(
-                args, "model", None) not in ("lugre", "tustin")):
+        if _uses_kernels(args):
             from jaxfric._kernel import prepare
 
             prepare()  # the C++ kernels build while the data are read
@@ -352,9 +351,18 @@ def main(argv=None) -> int:
         return _interrupt.stop(args.command, signal.SIGINT, hard)
 
 
-#: The commands that simulate, and so use the compiled kernels (`jaxfric._kernel`), but
-#: for a LuGre or Tustin model (a diagnosis tries a GMS whatever its model).
-_SIMULATING = ("demo", "fit", "simulate", "compare", "diagnose")
+def _uses_kernels(args) -> bool:
+    """Whether the command simulates a model of the compiled kernels (`jaxfric._kernel`:
+    the two-state model and the GMS, not LuGre or Tustin; no ``--model``: the two-state
+    model); a diagnosis and the demo try a GMS whatever their model."""
+    if args.command in ("demo", "diagnose"):
+        return True
+    if args.command not in ("fit", "simulate", "compare"):
+        return False
+    models = (args.models.split(",") if args.command == "compare"
+              else [args.model or "two-state"])
+    return any(m.strip() not in ("lugre", "tustin") for m in models)
+
 
 #: The outputs of each command: (option, attribute, file or folder), checked before work.
 _OUTPUTS = {

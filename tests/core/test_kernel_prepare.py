@@ -40,3 +40,29 @@ def test_prepare_starts_nothing_when_there_is_nothing_to_build(monkeypatch, valu
     monkeypatch.setattr(K, "available", lambda: pytest.fail("nothing to build"))
     monkeypatch.setenv(K.ENV, value)
     assert K.prepare() is None
+
+
+@pytest.mark.parametrize("argv, builds", [
+    (["diagnose", "run.csv", "--model", "tustin"], True),  # a diagnosis tries a GMS
+    (["fit", "run.csv"], True),
+    (["fit", "run.csv", "--model", "gms"], True),
+    (["fit", "run.csv", "--model", "tustin"], False),
+    (["compare", "run.csv", "--models", "lugre,tustin"], False),
+    (["compare", "run.csv", "--models", "lugre,gms"], True),
+    (["compare", "run.csv"], True),
+])
+def test_the_command_line_prepares_the_kernels_where_it_uses_them(monkeypatch, tmp_path,
+                                                                  argv, builds):
+    import importlib
+
+    cli = importlib.import_module("fitting.cli.main")
+
+    (tmp_path / "run.csv").write_text("t,x,F\n0,0,0\n1,1,1\n")
+    monkeypatch.chdir(tmp_path)
+    seen = []
+    monkeypatch.setattr(K, "prepare", lambda: seen.append("prepare"))
+    for name in ("_fit", "_diagnose", "_compare"):
+        monkeypatch.setattr(cli, name, lambda args: 0)
+    monkeypatch.setenv("JAXFRIC_CACHE_DIR", "")
+    assert cli.main(argv) == 0
+    assert seen == (["prepare"] if builds else [])
