@@ -13,6 +13,13 @@ about half of its samples in those spinning threads
 duration of a block, with ``threadpoolctl`` (about 1.4 ms per block), and restores the
 previous counts afterwards. Results do not change: a one-thread BLAS does the same
 arithmetic in the same blocks.
+
+Fits side by side in threads need one block around them all, not only each fit's own:
+``benchmarks/profiling/parallel_fits.py`` times two fits in two threads against one after
+the other, and with per-fit blocks alone each fit of the pair costs 1.8-2.9x the CPU time
+(the pair takes longer than the two in turn); with one block held around the pair, as long
+as one fit alone. `fitting.diagnose`, whose fits run side by side
+(`fitting._refits.Fitter.map`), holds one for all of its work.
 """
 
 from threadpoolctl import threadpool_limits

@@ -41,6 +41,7 @@ from jaxfric import effects as fx
 from jaxfric.motion import consistent_velocity
 
 from ._base_options import base_model_starts, default_base_models
+from ._blas import single_threaded_blas
 from ._candidates import _code, Candidate, Data
 from ._data import check_dataset, Dataset
 from ._derivatives import describe, estimate_acceleration, estimate_derivatives
@@ -356,6 +357,7 @@ def _by_gain(options):
     return judged + [o for o in options if not np.isfinite(o.gain)]
 
 
+@single_threaded_blas()  # for all of it: its fits run side by side (`fitting._blas`)
 def diagnose(
     model, t, x=None, F=None, v=None, *,
     effects: Sequence[str] | None = None,
