@@ -42,8 +42,8 @@ def test_disabled_does_nothing():
 def test_a_diagnosis_holds_one_blas_thread_throughout(monkeypatch):
     """`fitting.diagnose` runs fits side by side in threads; per-fit limits alone leave
     them at 1.8-2.9x the CPU time each (benchmarks/profiling/parallel_fits.py), so it
-    holds one limit around all of its work: the BLAS is on one thread when its search starts and
-    in every fit's thread, also between two fits."""
+    holds one limit around all of its work: the BLAS is on one thread when its search
+    starts and in every fit's thread, also between two fits."""
     from fitting import _diagnose, _refits, diagnose
     from tests.diagnosis.test_select import _tustin_record
 
